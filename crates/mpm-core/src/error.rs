@@ -1,0 +1,152 @@
+//! Typed errors shared by the solvers.
+
+use crate::math::Real;
+use std::fmt;
+use thiserror::Error;
+
+/// The stage of a step in which a guard check failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Particle-to-grid transfer.
+    P2G,
+    /// Grid velocity update and boundary conditions.
+    GridUpdate,
+    /// Grid-to-particle transfer, deformation update and advection.
+    G2P,
+    /// Time-step selection.
+    TimeStep,
+}
+
+impl fmt::Display for Stage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Stage::P2G => "p2g",
+            Stage::GridUpdate => "grid_update",
+            Stage::G2P => "g2p",
+            Stage::TimeStep => "time_step",
+        })
+    }
+}
+
+/// What a guard check found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Violation {
+    /// A non-finite value in the named quantity.
+    NonFinite(&'static str),
+    /// J ≤ 0 for a model undefined there.
+    InvertedElement,
+    /// A particle left the region where its stencil fits in the grid.
+    LeftDomain,
+    /// A particle moves more than one cell per step (|v| dt > Δx).
+    CflExceeded,
+    /// The time step fell below its minimum (m/s of the fastest particle given as value).
+    TimeStepTooSmall,
+}
+
+impl fmt::Display for Violation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Violation::NonFinite(q) => write!(f, "non-finite {q}"),
+            Violation::InvertedElement => f.write_str("J <= 0 for a model undefined there"),
+            Violation::LeftDomain => f.write_str("particle left the grid"),
+            Violation::CflExceeded => f.write_str("velocity beyond the CFL bound (|v| dt > dx)"),
+            Violation::TimeStepTooSmall => f.write_str("time step below its minimum"),
+        }
+    }
+}
+
+/// Where the failing value sits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Location {
+    /// A particle index.
+    Particle(usize),
+    /// A grid node (linear index).
+    Node(usize),
+    /// Not tied to one particle or node.
+    Global,
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::Particle(p) => write!(f, "particle {p}"),
+            Location::Node(n) => write!(f, "node {n}"),
+            Location::Global => f.write_str("whole system"),
+        }
+    }
+}
+
+/// A failed guard check: the run became numerically unstable.
+#[derive(Clone, Copy, Debug, PartialEq, Error)]
+#[error("instability at step {step} (t = {time:.6e} s, dt = {dt:.3e} s), stage {stage}, {location}: {violation} (value {value:.6e}){retries}", retries = RetryNote(*.retries))]
+pub struct Instability {
+    /// Step number (0-based) that failed.
+    pub step: u64,
+    /// Simulation time at the start of the step (s).
+    pub time: Real,
+    /// Time step of the failing attempt (s).
+    pub dt: Real,
+    /// Stage whose guard check failed.
+    pub stage: Stage,
+    /// Particle or node.
+    pub location: Location,
+    /// What was wrong.
+    pub violation: Violation,
+    /// The offending value.
+    pub value: Real,
+    /// How many dt/2 retries were made before giving up.
+    pub retries: u32,
+}
+
+struct RetryNote(u32);
+
+impl fmt::Display for RetryNote {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.0 > 0 {
+            write!(f, " after {} dt/2 retries", self.0)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// Errors raised when building a simulation from invalid parameters.
+#[derive(Clone, Debug, PartialEq, Error)]
+pub enum SetupError {
+    /// A parameter is out of its valid range.
+    #[error("invalid parameter `{name}` = {value}: {reason}")]
+    InvalidParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// Its value.
+        value: Real,
+        /// Why it is rejected.
+        reason: &'static str,
+    },
+    /// A particle's stencil does not fit in the grid.
+    #[error("particle {index} at {position} lies outside the grid's interior")]
+    ParticleOutsideGrid {
+        /// Particle index.
+        index: usize,
+        /// Position, formatted.
+        position: String,
+    },
+    /// A particle names a material that does not exist.
+    #[error("particle {index} refers to material {material}, but only {count} exist")]
+    UnknownMaterial {
+        /// Particle index.
+        index: usize,
+        /// Material index.
+        material: u32,
+        /// Number of materials.
+        count: usize,
+    },
+    /// A particle column required by a material is missing.
+    #[error("material {material} needs particle column `{column}`, which does not exist")]
+    MissingColumn {
+        /// Material index.
+        material: usize,
+        /// Column name.
+        column: &'static str,
+    },
+}

@@ -1,0 +1,22 @@
+//! Core types of the `mpm` workspace: maths, interpolation kernels, grids, particles,
+//! constitutive models, plasticity, boundaries, sampling, time-step control, guard checks and
+//! diagnostics. Solvers (`mpm-explicit`, `mpm-tlmpm`, `mpm-diq`) build on these.
+//!
+//! Units are SI throughout (m, s, kg, Pa); in 2D "volume" means area (m²) and densities are per
+//! unit area (kg/m²).
+
+pub mod boundary;
+pub mod error;
+pub mod grid;
+pub mod kernel;
+pub mod material;
+pub mod math;
+pub mod particles;
+pub mod sampling;
+
+pub use error::{Instability, Location, SetupError, Stage, Violation};
+pub use grid::{GridNodes, GridSpec};
+pub use kernel::{Kernel, Stencil};
+pub use material::Material;
+pub use math::{Angular, Dim, DimOps, Matrix, Real, Vector};
+pub use particles::{Columns, ParticleInit, Particles};

@@ -1,0 +1,155 @@
+//! Structure-of-arrays particle storage.
+//!
+//! Every particle has position, velocity, mass, initial volume, material index and the affine
+//! velocity matrix `C` (the APIC/MLS velocity gradient, also used by viscous fluids). The other
+//! columns exist only when some material in the scene needs them (DESIGN §3 and §5):
+//! the deformation gradient for solids, `J = det F` for fluids, the plastic state for plastic
+//! solids.
+
+use crate::material::{Material, PlasticState};
+use crate::math::{Matrix, Real, Vector};
+use serde::{Deserialize, Serialize};
+
+/// Which optional particle columns exist.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Columns {
+    /// Full deformation gradient F (solids).
+    pub deformation_gradient: bool,
+    /// Volume ratio J = det F only (fluids).
+    pub jacobian: bool,
+    /// Plastic state (snow, sand).
+    pub plastic: bool,
+}
+
+impl Columns {
+    /// The columns the given materials need.
+    pub fn for_materials(materials: &[Material]) -> Self {
+        Self {
+            deformation_gradient: materials.iter().any(Material::needs_deformation_gradient),
+            jacobian: materials.iter().any(|m| matches!(m, Material::Fluid(_))),
+            plastic: materials.iter().any(Material::needs_plastic_state),
+        }
+    }
+
+    /// Names of the columns that exist, always-present columns first.
+    pub fn names(&self) -> Vec<&'static str> {
+        let mut n = vec!["x", "v", "mass", "volume0", "material", "affine"];
+        if self.deformation_gradient {
+            n.push("F");
+        }
+        if self.jacobian {
+            n.push("J");
+        }
+        if self.plastic {
+            n.push("plastic");
+        }
+        n
+    }
+}
+
+/// One particle, as handed to [`Particles::push`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParticleInit<const D: usize> {
+    /// Position (m).
+    pub x: Vector<D>,
+    /// Velocity (m/s).
+    pub v: Vector<D>,
+    /// Mass (kg).
+    pub mass: Real,
+    /// Initial volume (m^D).
+    pub volume0: Real,
+    /// Index into the simulation's material table.
+    pub material: u32,
+    /// Initial affine velocity field C (1/s), e.g. the gradient of an initial rotation.
+    pub affine: Matrix<D>,
+}
+
+/// Particle storage, one `Vec` per field.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Particles<const D: usize> {
+    /// Positions (m).
+    pub x: Vec<Vector<D>>,
+    /// Velocities (m/s).
+    pub v: Vec<Vector<D>>,
+    /// Masses (kg).
+    pub mass: Vec<Real>,
+    /// Initial volumes V⁰ (m^D).
+    pub volume0: Vec<Real>,
+    /// Material indices.
+    pub material: Vec<u32>,
+    /// Affine velocity matrices C ≈ ∇v (1/s).
+    pub affine: Vec<Matrix<D>>,
+    /// Elastic deformation gradients F_E (dimensionless), if any material is solid.
+    pub def_grad: Option<Vec<Matrix<D>>>,
+    /// Volume ratios J (dimensionless), if any material is a fluid.
+    pub jacobian: Option<Vec<Real>>,
+    /// Plastic states, if any material is plastic.
+    pub plastic: Option<Vec<PlasticState>>,
+}
+
+impl<const D: usize> Particles<D> {
+    /// Empty storage with the given optional columns.
+    pub fn new(columns: Columns) -> Self {
+        Self {
+            def_grad: columns.deformation_gradient.then(Vec::new),
+            jacobian: columns.jacobian.then(Vec::new),
+            plastic: columns.plastic.then(Vec::new),
+            ..Self::default()
+        }
+    }
+
+    /// The optional columns that exist.
+    pub fn columns(&self) -> Columns {
+        Columns {
+            deformation_gradient: self.def_grad.is_some(),
+            jacobian: self.jacobian.is_some(),
+            plastic: self.plastic.is_some(),
+        }
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Whether there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+
+    /// Appends a particle in its undeformed, virgin state (F = I, J = 1, default plastic state).
+    pub fn push(&mut self, p: ParticleInit<D>) {
+        self.x.push(p.x);
+        self.v.push(p.v);
+        self.mass.push(p.mass);
+        self.volume0.push(p.volume0);
+        self.material.push(p.material);
+        self.affine.push(p.affine);
+        if let Some(f) = &mut self.def_grad {
+            f.push(Matrix::<D>::identity());
+        }
+        if let Some(j) = &mut self.jacobian {
+            j.push(1.0);
+        }
+        if let Some(s) = &mut self.plastic {
+            s.push(PlasticState::default());
+        }
+    }
+
+    /// Bytes of particle storage per particle for the columns that exist.
+    pub fn bytes_per_particle(&self) -> usize {
+        let r = std::mem::size_of::<Real>();
+        let mut b = 2 * D * r + 2 * r + std::mem::size_of::<u32>() + D * D * r;
+        let c = self.columns();
+        if c.deformation_gradient {
+            b += D * D * r;
+        }
+        if c.jacobian {
+            b += r;
+        }
+        if c.plastic {
+            b += std::mem::size_of::<PlasticState>();
+        }
+        b
+    }
+}
