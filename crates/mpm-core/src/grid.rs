@@ -126,7 +126,8 @@ mod tests {
 
     #[test]
     fn index_round_trip_and_stencil_containment() {
-        let spec = GridSpec::<3>::covering(Vector::<3>::zeros(), Vector::<3>::new(1.0, 0.5, 0.25), 0.05);
+        let spec =
+            GridSpec::<3>::covering(Vector::<3>::zeros(), Vector::<3>::new(1.0, 0.5, 0.25), 0.05);
         assert_eq!(spec.size, [21, 11, 6]);
         for idx in [0, 7, 100, spec.num_nodes() - 1] {
             assert_eq!(spec.linear_index(&spec.multi_index(idx)), Some(idx));

@@ -59,6 +59,12 @@ impl Kernel {
         }
     }
 
+    /// First stencil node along one axis for grid-unit coordinate `xh`.
+    #[inline]
+    pub fn base_node(self, xh: Real) -> i64 {
+        (xh - self.lower_margin()).floor() as i64
+    }
+
     /// 1D stencil at grid-unit coordinate `xh`: first node index, weights, and derivatives of
     /// the weights with respect to `xh` (multiply by `1/Δx` for spatial gradients).
     pub fn weights_1d(self, xh: Real) -> (i64, [Real; MAX_SUPPORT], [Real; MAX_SUPPORT]) {

@@ -20,3 +20,9 @@ pub use kernel::{Kernel, Stencil};
 pub use material::Material;
 pub use math::{Angular, Dim, DimOps, Matrix, Real, Vector};
 pub use particles::{Columns, ParticleInit, Particles};
+pub mod diagnostics;
+pub mod timestep;
+pub mod volume;
+
+pub use diagnostics::Diagnostics;
+pub use timestep::{OnInstability, TimeStepPolicy};

@@ -189,7 +189,9 @@ mod tests {
     fn sample<const D: usize>(seed: u64) -> Matrix<D> {
         let mut s = seed;
         Matrix::<D>::from_fn(|_, _| {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((s >> 11) as Real / (1u64 << 53) as Real) - 0.5
         }) + Matrix::<D>::identity()
     }

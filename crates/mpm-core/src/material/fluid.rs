@@ -25,19 +25,118 @@ pub struct FluidMaterial {
 }
 
 impl FluidMaterial {
-    /// Pressure p(J) (Pa).
+    /// Pressure p(J) = (K/γ)(J^{−γ} − 1) (Pa). Returns +∞ for J ≤ 0 (a collapsed or inverted
+    /// fluid element has no meaningful pressure; the solver's guard rejects it) and NaN for NaN.
     pub fn pressure(&self, j: Real) -> Real {
-        todo!("{j}")
+        if j <= 0.0 {
+            return Real::INFINITY;
+        }
+        let (k, g) = (self.eos.bulk_modulus, self.eos.gamma);
+        (k / g) * (j.powf(-g) - 1.0)
     }
 
-    /// Sound speed `c = √(dp/dρ)` (m/s) at volume ratio `j`.
+    /// Stored energy per reference volume ψ(J) = −∫₁ᴶ p dJ' (J/m^D), so that p = −dψ/dJ.
+    pub fn energy_density(&self, j: Real) -> Real {
+        let (k, g) = (self.eos.bulk_modulus, self.eos.gamma);
+        (k / g) * ((j.powf(1.0 - g) - 1.0) / (g - 1.0) + j - 1.0)
+    }
+
+    /// Sound speed `c = √(dp/dρ)` (m/s) at volume ratio `j`. With `ρ = ρ₀/J`,
+    /// `p = (K/γ)((ρ/ρ₀)^γ − 1)` gives `dp/dρ = (K/ρ₀)(ρ/ρ₀)^{γ−1} = K J^{1−γ}/ρ₀ = K J^{−γ}/ρ`.
+    /// Returns +∞ for J ≤ 0 (see [`Self::pressure`]).
     pub fn sound_speed(&self, j: Real) -> Real {
-        todo!("{j}")
+        if j <= 0.0 {
+            return Real::INFINITY;
+        }
+        let (k, g) = (self.eos.bulk_modulus, self.eos.gamma);
+        (k * j.powf(1.0 - g) / self.density).sqrt()
     }
 
     /// Kirchhoff stress `τ = J σ` with `σ = −p I + μ (∇v + ∇vᵀ)` (Pa), given J and the velocity
-    /// gradient ∇v (1/s).
+    /// gradient ∇v (1/s). Non-finite for J ≤ 0 (the pressure is +∞ there).
     pub fn kirchhoff<const D: usize>(&self, j: Real, grad_v: &Matrix<D>) -> Matrix<D> {
-        todo!("{j}{grad_v}")
+        let viscous = (grad_v + grad_v.transpose()) * self.viscosity;
+        (viscous - Matrix::<D>::identity() * self.pressure(j)) * j
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn water(viscosity: Real) -> FluidMaterial {
+        FluidMaterial {
+            density: 1000.0,
+            eos: Tait {
+                bulk_modulus: 2.2e9,
+                gamma: 7.0,
+            },
+            viscosity,
+        }
+    }
+
+    #[test]
+    fn pressure_vanishes_at_rest_and_grows_under_compression() {
+        let w = water(0.0);
+        assert_eq!(w.pressure(1.0), 0.0);
+        assert!(w.pressure(0.99) > 0.0 && w.pressure(0.98) > w.pressure(0.99));
+        assert!(w.pressure(1.01) < 0.0);
+        // Bulk modulus at rest: −J dp/dJ = K.
+        let h = 1e-6;
+        let k = -(w.pressure(1.0 + h) - w.pressure(1.0 - h)) / (2.0 * h);
+        assert!((k / w.eos.bulk_modulus - 1.0).abs() < 1e-8);
+        // p = −dψ/dJ for the stored energy.
+        for j in [0.9, 1.0, 1.1] {
+            let dpsi = (w.energy_density(j + h) - w.energy_density(j - h)) / (2.0 * h);
+            assert!((dpsi + w.pressure(j)).abs() <= 1e-6 * w.eos.bulk_modulus);
+        }
+        assert!(!w.pressure(0.0).is_finite() && !w.pressure(-0.5).is_finite());
+    }
+
+    #[test]
+    fn sound_speed_is_sqrt_dp_drho() {
+        let w = water(0.0);
+        let rho0 = w.density;
+        let p_of_rho = |rho: Real| w.pressure(rho0 / rho);
+        for j in [0.95, 1.0, 1.05] {
+            let (rho, h) = (rho0 / j, 1e-3);
+            let dp_drho = (p_of_rho(rho + h) - p_of_rho(rho - h)) / (2.0 * h);
+            let c = w.sound_speed(j);
+            assert!(
+                (c * c / dp_drho - 1.0).abs() < 1e-7,
+                "{c} vs {}",
+                dp_drho.sqrt()
+            );
+        }
+        assert!((w.sound_speed(1.0) - (2.2e6 as Real).sqrt()).abs() < 1e-9);
+        assert!(!w.sound_speed(0.0).is_finite());
+    }
+
+    fn kirchhoff_checks<const D: usize>() {
+        let grad_v = Matrix::<D>::from_fn(|i, j| (i as Real + 1.0) * 0.3 - j as Real * 0.7);
+        // At rest: zero stress whatever the viscosity.
+        let rest = water(1e-3).kirchhoff::<D>(1.0, &Matrix::<D>::zeros());
+        assert_eq!(rest, Matrix::<D>::zeros());
+        // Without viscosity the stress is isotropic, τ = −J p I, whatever ∇v.
+        let j = 0.98;
+        let w = water(0.0);
+        let tau = w.kirchhoff::<D>(j, &grad_v);
+        let expected = Matrix::<D>::identity() * (-j * w.pressure(j));
+        assert!((tau - expected).norm() <= 1e-12 * expected.norm());
+        // With viscosity, τ = J (−p I + μ (∇v + ∇vᵀ)) (a soft, viscous fluid so that both parts
+        // are of the same size).
+        let mut syrup = water(2.0);
+        syrup.eos.bulk_modulus = 10.0;
+        let tau = syrup.kirchhoff::<D>(j, &grad_v);
+        let sym = grad_v + grad_v.transpose();
+        let expected = (sym * 2.0 - Matrix::<D>::identity() * syrup.pressure(j)) * j;
+        assert!((tau - expected).norm() <= 1e-12 * expected.norm());
+        assert_eq!(tau, tau.transpose());
+    }
+
+    #[test]
+    fn kirchhoff_stress() {
+        kirchhoff_checks::<2>();
+        kirchhoff_checks::<3>();
     }
 }

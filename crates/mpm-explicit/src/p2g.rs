@@ -1,0 +1,115 @@
+//! Particle-to-grid transfer (multigrid paper Eqs. 5–7): mass, momentum and the fused MLS stress
+//! term `Q_p = −Δt V⁰_p τ_p M_p⁻¹ + m_p C_p`.
+
+use crate::blocks::Blocks;
+use crate::params::{BodyForce, Transfer};
+use mpm_core::material::PlasticState;
+use mpm_core::{
+    Dim, DimOps, GridNodes, GridSpec, Kernel, Material, Matrix, Particles, Real, Stencil, Vector,
+};
+
+/// Kirchhoff stress τ = J σ (Pa) of particle `p`.
+pub fn kirchhoff<const D: usize>(
+    particles: &Particles<D>,
+    materials: &[Material],
+    p: usize,
+) -> Matrix<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    match &materials[particles.material[p] as usize] {
+        Material::Solid(s) => {
+            let f = particles
+                .def_grad
+                .as_ref()
+                .map_or(Matrix::<D>::identity(), |f| f[p]);
+            let state = particles
+                .plastic
+                .as_ref()
+                .map_or(PlasticState::default(), |s| s[p]);
+            s.kirchhoff(&f, &state)
+        }
+        Material::Fluid(fl) => {
+            let j = particles.jacobian.as_ref().map_or(1.0, |j| j[p]);
+            fl.kirchhoff(j, &particles.affine[p])
+        }
+    }
+}
+
+/// The per-node "gradient" used by MLS transfers: `w M⁻¹ (x_i − x_p)` for quadratic and cubic
+/// kernels, the true kernel gradient for the linear kernel (see [`Kernel::mls_inertia_inv`]).
+#[inline]
+pub(crate) fn mls_gradient<const D: usize>(
+    minv: Option<Real>,
+    w: Real,
+    grad: &Vector<D>,
+    offset: &Vector<D>,
+) -> Vector<D> {
+    match minv {
+        Some(minv) => offset * (w * minv),
+        None => *grad,
+    }
+}
+
+/// Scatters mass and momentum (with the MLS stress impulse and the body-force impulse of the
+/// step from `t` to `t + dt`) to `grid`. With FLIP,
+/// `momentum0` receives the plain transferred momentum `Σ w m v`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn p2g<const D: usize>(
+    spec: &GridSpec<D>,
+    kernel: Kernel,
+    transfer: Transfer,
+    particles: &Particles<D>,
+    materials: &[Material],
+    blocks: &mut Blocks<D>,
+    grid: &mut GridNodes<D>,
+    momentum0: Option<&mut Vec<Vector<D>>>,
+    body_force: Option<&BodyForce<D>>,
+    (t, dt): (Real, Real),
+) where
+    Dim<D>: DimOps<D>,
+{
+    let minv = kernel.mls_inertia_inv(spec.dx);
+    let apic = matches!(transfer, Transfer::Apic);
+    let with0 = momentum0.is_some();
+    blocks.scatter(spec, kernel, grid, momentum0, |p, buf| {
+        let (xp, vp, m) = (particles.x[p], particles.v[p], particles.mass[p]);
+        let stress = kirchhoff(particles, materials, p) * (-dt * particles.volume0[p]);
+        let affine = if apic {
+            particles.affine[p] * m
+        } else {
+            Matrix::<D>::zeros()
+        };
+        let mut mv = vp * m;
+        if let Some(b) = body_force {
+            mv += (b.0)(p, &xp, t) * (m * dt);
+        }
+        Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
+            let d = spec.node_position(&node) - xp;
+            let g = mls_gradient(minv, w, &grad, &d);
+            let k = buf.local(&node);
+            buf.mass[k] += w * m;
+            buf.momentum[k] += (mv + affine * d) * w + stress * g;
+            if with0 {
+                buf.momentum0[k] += vp * (m * w);
+            }
+        });
+    });
+}
+
+/// Scatters particle masses only (for volume re-estimation).
+pub(crate) fn p2g_mass<const D: usize>(
+    spec: &GridSpec<D>,
+    kernel: Kernel,
+    particles: &Particles<D>,
+    blocks: &mut Blocks<D>,
+    grid: &mut GridNodes<D>,
+) {
+    blocks.scatter(spec, kernel, grid, None, |p, buf| {
+        let m = particles.mass[p];
+        Stencil::new(kernel, spec, &particles.x[p]).for_each(|node, w, _| {
+            let k = buf.local(&node);
+            buf.mass[k] += w * m;
+        });
+    });
+}
