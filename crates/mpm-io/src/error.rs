@@ -1,0 +1,33 @@
+//! Errors of the I/O layer.
+
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// An I/O failure, naming the file involved.
+#[derive(Debug, Error)]
+pub enum IoError {
+    /// The HDF5 library reported an error.
+    #[error("{path}: HDF5 error: {message}")]
+    Hdf5 {
+        /// File.
+        path: PathBuf,
+        /// Library message.
+        message: String,
+    },
+    /// A file-system operation failed.
+    #[error("{path}: {source}")]
+    Fs {
+        /// File.
+        path: PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The file is readable but not in the expected layout.
+    #[error("{path}: {message}")]
+    Format {
+        /// File.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}

@@ -1,0 +1,34 @@
+//! HDF5 snapshots and checkpoints, and the XDMF sidecar that lets ParaView open a run as a time
+//! series (DESIGN §7). This is the only crate of the workspace that links libhdf5; it knows
+//! nothing about solvers: callers hand it named arrays.
+//!
+//! File layout (snapshot and checkpoint alike):
+//! - root attributes: `kind` ("snapshot" | "checkpoint", string), `time` (s, f64), `step`
+//!   (u64), `dt` (s, f64), `dim` (u32), `units`, `scene` (the scene text) and `code_version`
+//!   (strings), `extra_attrs` (1-D string array: the names of the extra attributes, in order),
+//!   and one f64 attribute per extra attribute ([`Header::attrs`]);
+//! - group `/particles`: one dataset per field, shaped `[N, …]`, f64 or u32 stored natively
+//!   (bit-exact round trip), each with a `unit` string attribute; the group's `field_order`
+//!   attribute (1-D string array) lists the datasets in the order they were written, which is
+//!   the order [`read_file`] returns (the group also tracks link creation order, so h5py lists
+//!   them in that order too).
+//!
+//! Strings are variable-length UTF-8. Object modification times are not recorded, so writing
+//! the same data twice gives byte-identical files.
+//!
+//! Every file is written to a temporary name in the same directory (`.<name>.tmp-<pid>`,
+//! hidden from globs such as `snap_*.h5`), closed, fsynced and renamed into place, and the
+//! directory is fsynced, so a reader never sees a half-written file under its final name.
+
+mod atomic;
+mod error;
+mod snapshot;
+mod xdmf;
+
+pub use error::IoError;
+pub use snapshot::{
+    list_files, read_file, read_header, read_layout, write_file, Data, Field, FieldSpec, FileKind,
+    Header, Snapshot, EXTRA_ATTRS_ATTR, FIELD_ORDER_ATTR, PARTICLES_GROUP, RESERVED_ROOT_ATTRS,
+    UNIT_ATTR,
+};
+pub use xdmf::{write_xdmf, SeriesEntry};

@@ -1,0 +1,214 @@
+//! The XDMF sidecar (`run.xmf`): a Temporal collection with one Uniform grid per snapshot,
+//! Polyvertex topology, XY (2D) or XYZ (3D) geometry from `/particles/x`, and one attribute per
+//! other field, all referencing the HDF5 datasets.
+
+use crate::atomic::replace_atomically;
+use crate::{Field, FieldSpec, Header, IoError};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One snapshot in the series.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SeriesEntry {
+    /// Simulation time (s).
+    pub time: f64,
+    /// Snapshot file name relative to the XDMF file's directory.
+    pub file: String,
+    /// Spatial dimension (2 or 3).
+    pub dim: u32,
+    /// Fields as written (name, unit, shape, number type).
+    pub fields: Vec<FieldSpec>,
+}
+
+impl SeriesEntry {
+    /// The entry for a snapshot written with `header` and `fields` to `file` (relative to the
+    /// XDMF file's directory).
+    pub fn new(header: &Header, file: impl Into<String>, fields: &[Field]) -> Self {
+        SeriesEntry {
+            time: header.time,
+            file: file.into(),
+            dim: header.dim,
+            fields: fields.iter().map(Field::spec).collect(),
+        }
+    }
+}
+
+/// Writes the XDMF file for `entries` to `path` atomically.
+///
+/// Layout (XDMF 3): a `Temporal` collection holding, per entry and in the given order, a
+/// `Uniform` grid with its `Time`, a `Polyvertex` topology of N elements, an `XY` (2D) or
+/// `XYZ` (3D) geometry read from `<file>:/particles/x` (which must be an `f64` field shaped
+/// `[N, dim]`), and one node-centred attribute per other field, read from
+/// `<file>:/particles/<name>`:
+/// - `[N]`, `[N, 1]` → `Scalar`; `[N, 2]`, `[N, 3]` → `Vector`;
+/// - `[N, 3, 3]` → `Tensor` (9 components, `Dimensions="N 3 3"`);
+/// - `[N, 2, 2]` (2D tensors) and any other shape → `Matrix` flattened to
+///   `Dimensions="N M"`, M the product of the trailing dimensions (4 for a 2D tensor,
+///   row-major xx, xy, yx, yy). The HDF5 dataset keeps its shape `[N, 2, 2]`; the readers
+///   read it as N×M contiguous values. Checked with ParaView 5.11: the legacy "XDMF Reader"
+///   reads `Matrix` with `N 2 2` as 2 components (wrong) but `N 4` as 4 (right), and the
+///   XDMF 3 readers read both as 4.
+///
+/// Note on ParaView readers (5.11): the legacy "XDMF Reader" turns the connectivity-less
+/// `Polyvertex` into N vertex cells (the "Points" representation shows the particles, 2D
+/// vectors are padded to 3 components); the "Xdmf3 Reader" variants load the points and
+/// arrays but no cells, so use the "Point Gaussian" representation with them.
+///
+/// `f64` data is `Float`/8 bytes, `u32` data `UInt`/4 bytes. Names are XML-escaped.
+/// The file is written to a temporary name in the same directory and renamed into place.
+/// An entry without a usable `x` field, a field whose first dimension differs from N, or a
+/// non-finite time gives [`IoError::Format`].
+pub fn write_xdmf(path: &Path, entries: &[SeriesEntry]) -> Result<(), IoError> {
+    let text = render(entries).map_err(|message| IoError::Format {
+        path: path.to_path_buf(),
+        message,
+    })?;
+    replace_atomically(path, |tmp| {
+        std::fs::write(tmp, text.as_bytes()).map_err(|source| IoError::Fs {
+            path: tmp.to_path_buf(),
+            source,
+        })
+    })
+}
+
+/// The XDMF attribute type for a field of `shape` (`[N, …]`).
+fn attribute_type(shape: &[usize]) -> &'static str {
+    match shape {
+        [_] | [_, 1] => "Scalar",
+        [_, 2] | [_, 3] => "Vector",
+        [_, 3, 3] => "Tensor",
+        _ => "Matrix",
+    }
+}
+
+/// The `Dimensions` of the `DataItem` for a field of `shape` used as `attribute_type`:
+/// the dataset's shape, except that a `Matrix` is flattened to `N M`.
+fn dimensions(shape: &[usize], attribute_type: &str) -> String {
+    match (attribute_type, shape) {
+        ("Matrix", [n, rest @ ..]) => format!("{n} {}", rest.iter().product::<usize>()),
+        _ => join_dims(shape),
+    }
+}
+
+fn join_dims(shape: &[usize]) -> String {
+    shape
+        .iter()
+        .map(usize::to_string)
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn render(entries: &[SeriesEntry]) -> Result<String, String> {
+    let mut out = String::new();
+    // `write!` into a String cannot fail; the results are ignored below for that reason.
+    out.push_str("<?xml version=\"1.0\" encoding=\"utf-8\"?>\n");
+    out.push_str("<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n");
+    out.push_str("  <Domain>\n");
+    out.push_str(
+        "    <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
+    );
+    for (i, e) in entries.iter().enumerate() {
+        render_entry(&mut out, e).map_err(|m| format!("series entry {i} ({}): {m}", e.file))?;
+    }
+    out.push_str("    </Grid>\n");
+    out.push_str("  </Domain>\n");
+    out.push_str("</Xdmf>\n");
+    Ok(out)
+}
+
+fn render_entry(out: &mut String, e: &SeriesEntry) -> Result<(), String> {
+    if !e.time.is_finite() {
+        return Err(format!("time {} is not finite", e.time));
+    }
+    let geometry = match e.dim {
+        2 => "XY",
+        3 => "XYZ",
+        d => return Err(format!("dimension {d}, expected 2 or 3")),
+    };
+    let x = e
+        .fields
+        .iter()
+        .find(|f| f.name == "x")
+        .ok_or("no field `x` (positions)")?;
+    let n = match x.shape.as_slice() {
+        [n, d] if *d == e.dim as usize && !x.integer => *n,
+        _ => {
+            return Err(format!(
+                "field `x` must be f64 shaped [N, {}], found {} {:?}",
+                e.dim,
+                if x.integer { "u32" } else { "f64" },
+                x.shape
+            ))
+        }
+    };
+    for name in std::iter::once(&e.file).chain(e.fields.iter().map(|f| &f.name)) {
+        if name.chars().any(char::is_control) {
+            return Err(format!("name {name:?} contains a control character"));
+        }
+    }
+    let file = escape(&e.file);
+    let _ = writeln!(
+        out,
+        "      <Grid Name=\"{file}\" GridType=\"Uniform\">\n        <Time Value=\"{}\"/>",
+        fmt_time(e.time)
+    );
+    let _ = writeln!(
+        out,
+        "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{n}\" \
+         NodesPerElement=\"1\"/>"
+    );
+    let _ = writeln!(out, "        <Geometry GeometryType=\"{geometry}\">");
+    data_item(out, &file, x, &join_dims(&x.shape), "          ");
+    out.push_str("        </Geometry>\n");
+    for f in e.fields.iter().filter(|f| f.name != "x") {
+        if f.shape.first() != Some(&n) {
+            return Err(format!(
+                "field `{}` has shape {:?}, expected [{n}, …] like `x`",
+                f.name, f.shape
+            ));
+        }
+        let kind = attribute_type(&f.shape);
+        let _ = writeln!(
+            out,
+            "        <Attribute Name=\"{}\" AttributeType=\"{kind}\" Center=\"Node\">",
+            escape(&f.name),
+        );
+        data_item(out, &file, f, &dimensions(&f.shape, kind), "          ");
+        out.push_str("        </Attribute>\n");
+    }
+    out.push_str("      </Grid>\n");
+    Ok(())
+}
+
+/// A `DataItem` referencing `/particles/<name>` in `file` (already escaped).
+fn data_item(out: &mut String, file: &str, f: &FieldSpec, dims: &str, indent: &str) {
+    let (number_type, precision) = if f.integer { ("UInt", 4) } else { ("Float", 8) };
+    let _ = writeln!(
+        out,
+        "{indent}<DataItem Dimensions=\"{dims}\" NumberType=\"{number_type}\" \
+         Precision=\"{precision}\" Format=\"HDF\">{file}:/particles/{}</DataItem>",
+        escape(&f.name)
+    );
+}
+
+/// Shortest decimal text that reads back as the same `f64` (Rust's `{:?}` formatting, which
+/// uses an exponent for very large or small magnitudes, e.g. `1e-7`).
+fn fmt_time(t: f64) -> String {
+    format!("{t:?}")
+}
+
+/// Escapes the five XML special characters.
+fn escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
