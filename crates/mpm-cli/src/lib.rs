@@ -1,0 +1,17 @@
+//! The `mpm-cli` command-line tool as a library: scene format, building a solver from a scene,
+//! the run loop with snapshots and checkpoints, `check`, `info` and `render`. The binary
+//! (`src/main.rs`) only parses arguments and maps errors to exit codes. No physics lives here.
+
+pub mod build;
+pub mod check;
+pub mod error;
+pub mod font;
+pub mod info;
+pub mod mesh;
+pub mod render;
+pub mod run;
+pub mod scene;
+pub mod span;
+pub mod state;
+
+pub use error::{CliError, SceneError};

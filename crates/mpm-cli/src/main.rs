@@ -1,0 +1,128 @@
+//! `mpm-cli`: run MPM scenes. Exit codes: 0 ok, 2 bad input, 3 numerical instability,
+//! 1 anything else.
+
+use clap::{Parser, Subcommand};
+use mpm_cli::render::RenderOptions;
+use mpm_cli::run::RunOptions;
+use mpm_cli::CliError;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "mpm-cli",
+    version,
+    about = "Material Point Method scenes: run, check, inspect, render"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene: HDF5 snapshots, run.xmf, checkpoints and summary.json in the output directory.
+    Run {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Output directory (default: [output] directory of the scene).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Resume from this checkpoint (ckpt_NNNNNN.h5).
+        #[arg(long)]
+        resume: Option<PathBuf>,
+        /// Number of worker threads (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No progress output.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Check a scene: print it with defaults filled in, and the stage plan.
+    Check {
+        /// Scene file (TOML).
+        scene: PathBuf,
+    },
+    /// Print the header and fields of a snapshot or checkpoint.
+    Info {
+        /// An .h5 file written by `mpm-cli run`.
+        file: PathBuf,
+        /// Also print the scene text stored in the file.
+        #[arg(long)]
+        scene: bool,
+    },
+    /// Render snapshots to PNG images in DIR/render/.
+    Render {
+        /// Output directory of a run.
+        dir: PathBuf,
+        /// Frame number to render (default: the last).
+        #[arg(long, conflicts_with = "all")]
+        frame: Option<u64>,
+        /// Render every frame.
+        #[arg(long)]
+        all: bool,
+        /// Field to colour by: material, speed, or any field in the snapshot (default: material
+        /// when several materials exist, else speed).
+        #[arg(long)]
+        color_by: Option<String>,
+        /// Image width in pixels.
+        #[arg(long, default_value_t = 800)]
+        width: usize,
+    },
+}
+
+fn dispatch(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Command::Run {
+            scene,
+            out,
+            resume,
+            threads,
+            quiet,
+        } => mpm_cli::run::run(&RunOptions {
+            scene,
+            out,
+            resume,
+            threads,
+            quiet,
+        }),
+        Command::Check { scene } => {
+            print!("{}", mpm_cli::check::check(&scene)?);
+            Ok(())
+        }
+        Command::Info { file, scene } => {
+            print!("{}", mpm_cli::info::info(&file, scene)?);
+            Ok(())
+        }
+        Command::Render {
+            dir,
+            frame,
+            all,
+            color_by,
+            width,
+        } => {
+            let files = mpm_cli::render::render(&RenderOptions {
+                dir,
+                frame,
+                all,
+                color_by,
+                width,
+            })?;
+            for f in files {
+                println!("{}", f.display());
+            }
+            Ok(())
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match dispatch(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{e}");
+            ExitCode::from(e.exit_code() as u8)
+        }
+    }
+}

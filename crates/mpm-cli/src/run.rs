@@ -1,0 +1,864 @@
+//! `mpm-cli run`: the time loop with progress, snapshots, the XDMF sidecar, checkpoints,
+//! resume, the timing table and `summary.json`.
+
+use crate::build::{build, AnyBuilt, Built};
+use crate::error::CliError;
+use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene};
+use crate::state::{checkpoint_fields, first_non_finite, restore, snapshot_fields, UNITS};
+use mpm_core::{Diagnostics, Dim, DimOps, Instability};
+use mpm_explicit::ExplicitSolver;
+use mpm_io::{read_file, write_file, write_xdmf, FileKind, Header, SeriesEntry};
+use serde_json::json;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Options of `mpm-cli run`.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Scene file.
+    pub scene: PathBuf,
+    /// Output directory overriding `[output] directory`.
+    pub out: Option<PathBuf>,
+    /// Checkpoint to resume from.
+    pub resume: Option<PathBuf>,
+    /// Size of the rayon thread pool.
+    pub threads: Option<usize>,
+    /// No progress output.
+    pub quiet: bool,
+}
+
+/// Code version written into every file.
+pub fn code_version() -> String {
+    format!("mpm-cli {}", env!("CARGO_PKG_VERSION"))
+}
+
+/// File name of snapshot `frame`.
+pub fn snapshot_name(frame: u64) -> String {
+    format!("snap_{frame:06}.h5")
+}
+
+/// File name of the checkpoint written after `step` steps.
+pub fn checkpoint_name(step: u64) -> String {
+    format!("ckpt_{step:06}.h5")
+}
+
+/// The number in a file name `prefix_NNNNNN.h5`, if it has that exact form.
+pub fn numbered(name: &str, prefix: &str) -> Option<u64> {
+    let digits = name.strip_prefix(prefix)?.strip_suffix(".h5")?;
+    if digits.len() >= 6 && digits.bytes().all(|b| b.is_ascii_digit()) {
+        digits.parse().ok()
+    } else {
+        None
+    }
+}
+
+/// The files `prefix_NNNNNN.h5` in `dir`, sorted by number.
+pub fn numbered_files(dir: &Path, prefix: &str) -> Vec<(u64, PathBuf)> {
+    let mut v: Vec<(u64, PathBuf)> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(Result::ok)
+                .filter_map(|e| {
+                    let name = e.file_name().to_string_lossy().into_owned();
+                    numbered(&name, prefix).map(|n| (n, e.path()))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// Runs a scene. Exit codes follow from the error kind.
+pub fn run(opts: &RunOptions) -> Result<(), CliError> {
+    if let Some(n) = opts.threads {
+        if n == 0 {
+            return Err(CliError::BadInput(
+                "error: --threads must be at least 1".into(),
+            ));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .map_err(|e| CliError::Other(format!("error: cannot set up {n} threads: {e}")))?;
+    }
+    let scene = scene::load(&opts.scene)?;
+    let built = build(&scene)?;
+    let (out, from_scene) = match &opts.out {
+        Some(o) => (o.clone(), false),
+        None => (PathBuf::from(&scene.scene.output.directory), true),
+    };
+    prepare_output(&scene, &out, from_scene)?;
+    match built {
+        AnyBuilt::D2(b) => Runner::new(*b, &scene, &out, opts)?.run(),
+        AnyBuilt::D3(b) => Runner::new(*b, &scene, &out, opts)?.run(),
+    }
+}
+
+/// Creates the output directory and checks that it can be written.
+fn prepare_output(scene: &LoadedScene, out: &Path, from_scene: bool) -> Result<(), CliError> {
+    let fail = |why: String| -> CliError {
+        let msg = format!(
+            "output directory {} cannot be written: {why}",
+            out.display()
+        );
+        if from_scene {
+            scene.error("output.directory", msg).into()
+        } else {
+            CliError::BadInput(format!("error: --out: {msg}"))
+        }
+    };
+    std::fs::create_dir_all(out).map_err(|e| fail(e.to_string()))?;
+    let probe = out.join(".mpm-cli-write-test");
+    std::fs::write(&probe, b"ok").map_err(|e| fail(e.to_string()))?;
+    std::fs::remove_file(&probe).map_err(|e| fail(e.to_string()))?;
+    Ok(())
+}
+
+/// When the next output of a periodic kind is due.
+#[derive(Clone, Copy, Debug)]
+struct Schedule {
+    interval: Interval,
+    /// Next time (s) or step at which it is due.
+    next: f64,
+}
+
+impl Schedule {
+    fn new(interval: Interval) -> Self {
+        let next = match interval {
+            Interval::Time { interval } => interval,
+            Interval::Steps { interval_steps } => interval_steps as f64,
+        };
+        Self { interval, next }
+    }
+
+    /// Whether an output is due at `time` after `steps` steps; if so, advances to the next
+    /// multiple of the interval beyond the current position.
+    fn due(&mut self, time: f64, steps: u64) -> bool {
+        let (pos, step) = match self.interval {
+            Interval::Time { interval } => (time, interval),
+            Interval::Steps { interval_steps } => (steps as f64, interval_steps as f64),
+        };
+        if pos < self.next {
+            return false;
+        }
+        self.next = ((pos / step).floor() + 1.0) * step;
+        true
+    }
+}
+
+/// Everything of a run that is not the solver.
+struct Runner<'a, const D: usize> {
+    solver: ExplicitSolver<D>,
+    scene: &'a LoadedScene,
+    out: PathBuf,
+    quiet: bool,
+    warnings: Vec<String>,
+    /// Index of the next snapshot.
+    frame: u64,
+    series: Vec<SeriesEntry>,
+    snapshot_schedule: Schedule,
+    checkpoint_schedule: Option<(Schedule, CheckpointDef)>,
+    /// Diagnostics at time 0 (from the checkpoint when resuming).
+    initial: Diagnostics<D>,
+    /// Step of the last snapshot and checkpoint written.
+    last_snapshot_step: Option<u64>,
+    last_checkpoint_step: Option<u64>,
+    last_dt: f64,
+    dt_min: f64,
+    dt_max: f64,
+    dt_sum: f64,
+    steps_this_run: u64,
+    retries: u64,
+    first_step: u64,
+    first_time: f64,
+    io_seconds: f64,
+    checkpoints_written: Vec<String>,
+}
+
+/// Names of checkpoint attributes.
+const ATTR_FRAME: &str = "next_frame";
+const ATTR_NEXT_SNAPSHOT: &str = "next_snapshot";
+const ATTR_NEXT_CHECKPOINT: &str = "next_checkpoint";
+const ATTR_INITIAL: [&str; 8] = [
+    "initial_mass",
+    "initial_momentum_0",
+    "initial_momentum_1",
+    "initial_momentum_2",
+    "initial_angular_momentum_0",
+    "initial_angular_momentum_1",
+    "initial_angular_momentum_2",
+    "initial_energy",
+];
+const ATTR_INITIAL_ENERGY_PARTS: [&str; 3] = [
+    "initial_kinetic_energy",
+    "initial_elastic_energy",
+    "initial_potential_energy",
+];
+
+impl<'a, const D: usize> Runner<'a, D>
+where
+    Dim<D>: DimOps<D>,
+{
+    fn new(
+        built: Built<D>,
+        scene: &'a LoadedScene,
+        out: &Path,
+        opts: &RunOptions,
+    ) -> Result<Self, CliError> {
+        let Built {
+            solver, warnings, ..
+        } = built;
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
+        let initial = solver.diagnostics();
+        let sc = &scene.scene;
+        let mut r = Self {
+            first_step: 0,
+            first_time: 0.0,
+            solver,
+            scene,
+            out: out.to_path_buf(),
+            quiet: opts.quiet,
+            warnings,
+            frame: 0,
+            series: Vec::new(),
+            snapshot_schedule: Schedule::new(sc.output.interval),
+            checkpoint_schedule: sc.checkpoint.map(|c| (Schedule::new(c.interval), c)),
+            initial,
+            last_snapshot_step: None,
+            last_checkpoint_step: None,
+            last_dt: 0.0,
+            dt_min: f64::INFINITY,
+            dt_max: 0.0,
+            dt_sum: 0.0,
+            steps_this_run: 0,
+            retries: 0,
+            io_seconds: 0.0,
+            checkpoints_written: Vec::new(),
+        };
+        match &opts.resume {
+            Some(ckpt) => r.resume(ckpt)?,
+            None => r.clean_stale_outputs(),
+        }
+        Ok(r)
+    }
+
+    /// Removes snapshots and checkpoints of an earlier run in the output directory.
+    fn clean_stale_outputs(&mut self) {
+        let mut removed = 0;
+        for prefix in ["snap_", "ckpt_"] {
+            for (_, p) in numbered_files(&self.out, prefix) {
+                if std::fs::remove_file(&p).is_ok() {
+                    removed += 1;
+                }
+            }
+        }
+        // Temporary files left by a killed run (`.snap_000042.h5.tmp-PID`).
+        if let Ok(rd) = std::fs::read_dir(&self.out) {
+            for e in rd.filter_map(Result::ok) {
+                let name = e.file_name().to_string_lossy().into_owned();
+                let ours = [".snap_", ".ckpt_", ".run.xmf"]
+                    .iter()
+                    .any(|p| name.starts_with(p));
+                if ours && name.contains(".tmp-") && std::fs::remove_file(e.path()).is_ok() {
+                    removed += 1;
+                }
+            }
+        }
+        if removed > 0 && !self.quiet {
+            eprintln!(
+                "note: removed {removed} snapshot, checkpoint or temporary files of an earlier run in {}",
+                self.out.display()
+            );
+        }
+    }
+
+    /// Restores the solver from a checkpoint and picks up the output series where it was.
+    fn resume(&mut self, path: &Path) -> Result<(), CliError> {
+        let bad =
+            |m: String| CliError::BadInput(format!("error: --resume {}: {m}", path.display()));
+        let ck = read_file(path).map_err(|e| bad(e.to_string()))?;
+        if ck.header.kind != FileKind::Checkpoint {
+            return Err(bad("not a checkpoint (it is a snapshot)".into()));
+        }
+        if ck.header.dim as usize != D {
+            return Err(bad(format!(
+                "checkpoint is {}D, the scene is {D}D",
+                ck.header.dim
+            )));
+        }
+        let count = self.solver.materials.len();
+        let mut particles = self.solver.particles.clone();
+        restore(&mut particles, &ck, count).map_err(bad)?;
+        // Re-check the restored particles against this scene's grid and materials.
+        let s = &self.solver;
+        self.solver = ExplicitSolver::new(
+            s.spec,
+            s.params.clone(),
+            s.materials.clone(),
+            s.boundaries.clone(),
+            particles,
+        )
+        .map_err(|e| bad(format!("does not fit this scene: {e}")))?;
+        self.solver.time = ck.header.time;
+        self.solver.steps = ck.header.step;
+        self.first_step = ck.header.step;
+        self.first_time = ck.header.time;
+        self.last_dt = ck.header.dt;
+        self.last_checkpoint_step = Some(ck.header.step);
+        if ck.header.scene != self.scene.text {
+            self.warn(format!(
+                "the scene file differs from the scene stored in checkpoint {}",
+                path.display()
+            ));
+        }
+        let attr = |name: &str| {
+            ck.header
+                .attrs
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|(_, v)| *v)
+        };
+        self.frame = attr(ATTR_FRAME).map_or(0, |f| f as u64);
+        if let Some(next) = attr(ATTR_NEXT_SNAPSHOT) {
+            self.snapshot_schedule.next = next;
+        }
+        if let (Some(next), Some((s, _))) = (
+            attr(ATTR_NEXT_CHECKPOINT),
+            self.checkpoint_schedule.as_mut(),
+        ) {
+            s.next = next;
+        }
+        let init: Vec<Option<f64>> = ATTR_INITIAL.iter().map(|n| attr(n)).collect();
+        if let Some(v) = init.iter().copied().collect::<Option<Vec<f64>>>() {
+            self.initial.mass = v[0];
+            for a in 0..D {
+                self.initial.momentum[a] = v[1 + a];
+            }
+            for a in 0..3 {
+                self.initial.angular_momentum[a] = v[4 + a];
+            }
+            let parts: Option<Vec<f64>> =
+                ATTR_INITIAL_ENERGY_PARTS.iter().map(|n| attr(n)).collect();
+            if let Some(p) = parts {
+                self.initial.kinetic_energy = p[0];
+                self.initial.elastic_energy = p[1];
+                self.initial.potential_energy = p[2];
+            }
+        }
+        // Keep the snapshots written before the checkpoint; later ones are rewritten.
+        for (n, p) in numbered_files(&self.out, "snap_") {
+            if n >= self.frame {
+                let _ = std::fs::remove_file(&p);
+                continue;
+            }
+            match read_file(&p) {
+                Ok(s) => self.series.push(SeriesEntry {
+                    time: s.header.time,
+                    file: snapshot_name(n),
+                    dim: D as u32,
+                    fields: s.fields.iter().map(|f| f.spec()).collect(),
+                }),
+                Err(e) => self.warn(format!("earlier snapshot not kept in run.xmf: {e}")),
+            }
+        }
+        if !self.quiet {
+            eprintln!(
+                "resuming from {} at t = {:.6} s, step {}",
+                path.display(),
+                self.solver.time,
+                self.solver.steps
+            );
+        }
+        Ok(())
+    }
+
+    fn warn(&mut self, w: String) {
+        eprintln!("warning: {w}");
+        self.warnings.push(w);
+    }
+
+    fn header(&self, kind: FileKind, attrs: Vec<(String, f64)>) -> Header {
+        Header {
+            kind,
+            time: self.solver.time,
+            step: self.solver.steps,
+            dt: self.last_dt,
+            dim: D as u32,
+            units: UNITS.to_string(),
+            scene: self.scene.text.clone(),
+            code_version: code_version(),
+            attrs,
+        }
+    }
+
+    /// Writes the next snapshot and rewrites `run.xmf`.
+    fn write_snapshot(&mut self) -> Result<(), CliError> {
+        let t = Instant::now();
+        let fields = snapshot_fields(
+            &self.solver.particles,
+            &self.solver.materials,
+            &self.scene.scene.output.fields,
+        );
+        if let Some((name, p, v)) = first_non_finite(&fields) {
+            return Err(CliError::Instability(format!(
+                "error: non-finite {name} = {v} at particle {p} at step {} (t = {:.6e} s); \
+                 snapshot not written",
+                self.solver.steps, self.solver.time
+            )));
+        }
+        let name = snapshot_name(self.frame);
+        let header = self.header(
+            FileKind::Snapshot,
+            vec![("frame".to_string(), self.frame as f64)],
+        );
+        write_file(&self.out.join(&name), &header, &fields)?;
+        self.series.push(SeriesEntry {
+            time: self.solver.time,
+            file: name,
+            dim: D as u32,
+            fields: fields.iter().map(|f| f.spec()).collect(),
+        });
+        write_xdmf(&self.out.join("run.xmf"), &self.series)?;
+        self.frame += 1;
+        self.last_snapshot_step = Some(self.solver.steps);
+        self.io_seconds += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// Writes a checkpoint of the full state and deletes the oldest beyond `keep`.
+    fn write_checkpoint(&mut self, keep: u32) -> Result<(), CliError> {
+        let t = Instant::now();
+        let fields = checkpoint_fields(&self.solver.particles);
+        if let Some((name, p, v)) = first_non_finite(&fields) {
+            return Err(CliError::Instability(format!(
+                "error: non-finite {name} = {v} at particle {p} at step {}; checkpoint not written",
+                self.solver.steps
+            )));
+        }
+        let mut attrs = vec![
+            (ATTR_FRAME.to_string(), self.frame as f64),
+            (ATTR_NEXT_SNAPSHOT.to_string(), self.snapshot_schedule.next),
+        ];
+        if let Some((s, _)) = &self.checkpoint_schedule {
+            attrs.push((ATTR_NEXT_CHECKPOINT.to_string(), s.next));
+        }
+        let i = &self.initial;
+        let mut init = vec![i.mass];
+        init.extend((0..3).map(|a| if a < D { i.momentum[a] } else { 0.0 }));
+        init.extend((0..3).map(|a| i.angular_momentum[a]));
+        init.push(i.total_energy());
+        for (n, v) in ATTR_INITIAL.iter().zip(init) {
+            attrs.push((n.to_string(), v));
+        }
+        for (n, v) in ATTR_INITIAL_ENERGY_PARTS.iter().zip([
+            i.kinetic_energy,
+            i.elastic_energy,
+            i.potential_energy,
+        ]) {
+            attrs.push((n.to_string(), v));
+        }
+        let name = checkpoint_name(self.solver.steps);
+        let header = self.header(FileKind::Checkpoint, attrs);
+        write_file(&self.out.join(&name), &header, &fields)?;
+        self.last_checkpoint_step = Some(self.solver.steps);
+        self.checkpoints_written.push(name);
+        let all = numbered_files(&self.out, "ckpt_");
+        let excess = all.len().saturating_sub(keep as usize);
+        for (_, p) in all.into_iter().take(excess) {
+            let _ = std::fs::remove_file(p);
+        }
+        self.io_seconds += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    fn finished(&self) -> bool {
+        match self.scene.scene.simulation.duration {
+            Duration::EndTime { end_time } => self.solver.time >= end_time,
+            Duration::Steps { steps } => self.solver.steps >= steps,
+        }
+    }
+
+    /// Fraction of the run done, in [0, 1].
+    fn progress(&self) -> f64 {
+        let f = match self.scene.scene.simulation.duration {
+            Duration::EndTime { end_time } => {
+                (self.solver.time - self.first_time) / (end_time - self.first_time)
+            }
+            Duration::Steps { steps } => {
+                (self.solver.steps - self.first_step) as f64
+                    / steps.saturating_sub(self.first_step).max(1) as f64
+            }
+        };
+        if f.is_finite() {
+            f.clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+
+    fn run(mut self) -> Result<(), CliError> {
+        let wall = Instant::now();
+        let n = self.solver.particles.len();
+        if !self.quiet {
+            eprintln!(
+                "{}: {}D, {n} particles, grid {:?} nodes (dx = {} m), {} threads, output in {}",
+                self.scene.path.display(),
+                D,
+                self.solver.spec.size,
+                self.solver.spec.dx,
+                rayon::current_num_threads(),
+                self.out.display()
+            );
+        }
+        if self.series.is_empty() && self.frame == 0 {
+            self.write_snapshot()?;
+        }
+        let tty = std::io::stderr().is_terminal();
+        let mut progress = Progress::new(self.quiet, tty);
+        let mut failure: Option<CliError> = None;
+        while !self.finished() {
+            match self.solver.step() {
+                Ok(info) => {
+                    self.last_dt = info.dt;
+                    self.dt_min = self.dt_min.min(info.dt);
+                    self.dt_max = self.dt_max.max(info.dt);
+                    self.dt_sum += info.dt;
+                    self.steps_this_run += 1;
+                    self.retries += info.retries as u64;
+                }
+                Err(e) => {
+                    failure = Some(instability_error(&e));
+                    break;
+                }
+            }
+            let (time, steps) = (self.solver.time, self.solver.steps);
+            if self.snapshot_schedule.due(time, steps) {
+                if let Err(e) = self.write_snapshot() {
+                    failure = Some(e);
+                    break;
+                }
+            }
+            let ck = self
+                .checkpoint_schedule
+                .as_mut()
+                .and_then(|(s, c)| s.due(time, steps).then_some(c.keep));
+            if let Some(keep) = ck {
+                if let Err(e) = self.write_checkpoint(keep) {
+                    failure = Some(e);
+                    break;
+                }
+            }
+            progress.update(
+                self.progress(),
+                self.solver.time,
+                self.solver.steps,
+                self.last_dt,
+                wall,
+            );
+        }
+        progress.finish();
+        if failure.is_none() {
+            if self.last_snapshot_step != Some(self.solver.steps) {
+                if let Err(e) = self.write_snapshot() {
+                    failure = Some(e);
+                }
+            }
+            if let Some((_, c)) = self.checkpoint_schedule {
+                if failure.is_none() && self.last_checkpoint_step != Some(self.solver.steps) {
+                    if let Err(e) = self.write_checkpoint(c.keep) {
+                        failure = Some(e);
+                    }
+                }
+            }
+        }
+        let wall_s = wall.elapsed().as_secs_f64();
+        if self.retries > 0 {
+            let w = format!("{} dt/2 retries were needed", self.retries);
+            self.warn(w);
+        }
+        let summary = self.summary(wall_s, failure.as_ref());
+        let text = serde_json::to_string_pretty(&summary).unwrap_or_else(|_| "{}".to_string());
+        let summary_path = self.out.join("summary.json");
+        let write_summary = std::fs::write(&summary_path, text + "\n");
+        if let Some(e) = failure {
+            eprintln!(
+                "run stopped after {} steps; outputs written so far are kept in {}",
+                self.solver.steps,
+                self.out.display()
+            );
+            return Err(e);
+        }
+        write_summary.map_err(|e| {
+            CliError::Other(format!(
+                "error: cannot write {}: {e}",
+                summary_path.display()
+            ))
+        })?;
+        self.print_report(wall_s);
+        Ok(())
+    }
+
+    fn print_report(&self, wall_s: f64) {
+        let table = self.solver.stats.table();
+        let stage_total: f64 = table.iter().map(|(_, s)| s).sum();
+        let mut out = String::new();
+        out.push_str(&format!(
+            "done: {} steps ({} this run) to t = {:.6} s, {} particles, {} snapshots, wall {:.2} s\n",
+            self.solver.steps,
+            self.steps_this_run,
+            self.solver.time,
+            self.solver.particles.len(),
+            self.frame,
+            wall_s
+        ));
+        out.push_str("stage           seconds   share\n");
+        for (name, s) in table.iter() {
+            out.push_str(&format!(
+                "{name:<14} {s:>9.3}  {:>5.1}%\n",
+                100.0 * s / wall_s.max(1e-12)
+            ));
+        }
+        out.push_str(&format!(
+            "{:<14} {:>9.3}  {:>5.1}%\n",
+            "output (I/O)",
+            self.io_seconds,
+            100.0 * self.io_seconds / wall_s.max(1e-12)
+        ));
+        out.push_str(&format!("{:<14} {:>9.3}\n", "solver total", stage_total));
+        out.push_str(&format!("{:<14} {:>9.3}\n", "wall total", wall_s));
+        if self.steps_this_run > 0 {
+            out.push_str(&format!(
+                "dt min/mean/max: {:.3e} / {:.3e} / {:.3e} s\n",
+                self.dt_min,
+                self.dt_sum / self.steps_this_run as f64,
+                self.dt_max
+            ));
+        }
+        out.push_str(&format!(
+            "summary: {}\n",
+            self.out.join("summary.json").display()
+        ));
+        print!("{out}");
+        let _ = std::io::stdout().flush();
+    }
+
+    fn summary(&self, wall_s: f64, failure: Option<&CliError>) -> serde_json::Value {
+        let fin = self.solver.diagnostics();
+        let ini = &self.initial;
+        let vec3 = |v: &[f64]| v.to_vec();
+        let diff_norm = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y) * (x - y))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let rel = |abs: f64, scale: f64| {
+            if scale > 0.0 && scale.is_finite() {
+                json!(abs / scale)
+            } else {
+                serde_json::Value::Null
+            }
+        };
+        let p0: Vec<f64> = ini.momentum.iter().copied().collect();
+        let p1: Vec<f64> = fin.momentum.iter().copied().collect();
+        let l0: Vec<f64> = ini.angular_momentum.iter().copied().collect();
+        let l1: Vec<f64> = fin.angular_momentum.iter().copied().collect();
+        let mass_abs = (fin.mass - ini.mass).abs();
+        let e_abs = (fin.total_energy() - ini.total_energy()).abs();
+        let stages: serde_json::Map<String, serde_json::Value> = self
+            .solver
+            .stats
+            .table()
+            .iter()
+            .map(|(n, s)| (n.to_string(), json!(s)))
+            .collect();
+        let (status, error) = match failure {
+            None => ("ok", None),
+            Some(CliError::Instability(m)) => ("instability", Some(m.clone())),
+            Some(e) => ("error", Some(e.to_string())),
+        };
+        let dt = if self.steps_this_run > 0 {
+            json!({
+                "min": self.dt_min,
+                "mean": self.dt_sum / self.steps_this_run as f64,
+                "max": self.dt_max,
+            })
+        } else {
+            json!({ "min": null, "mean": null, "max": null })
+        };
+        json!({
+            "scene": self.scene.path.display().to_string(),
+            "status": status,
+            "error": error,
+            "dim": D,
+            "solver": "explicit",
+            "particles": self.solver.particles.len(),
+            "steps": self.solver.steps,
+            "steps_this_run": self.steps_this_run,
+            "resumed_from_step": if self.first_step > 0 { json!(self.first_step) } else { serde_json::Value::Null },
+            "time": self.solver.time,
+            "dt": dt,
+            "retries": self.retries,
+            "snapshots": self.frame,
+            "checkpoints": self.checkpoints_written,
+            "wall_time": {
+                "total": wall_s,
+                "stages": stages,
+                "output": self.io_seconds,
+            },
+            "threads": rayon::current_num_threads(),
+            "conservation": {
+                "note": "drift = |final - initial| from t = 0 (over resumed runs too); gravity, \
+                         walls and colliders change momentum and energy, and the solver \
+                         dissipates energy, so only mass is expected to be exactly conserved",
+                "mass": {
+                    "initial": ini.mass, "final": fin.mass,
+                    "drift": mass_abs, "relative_drift": rel(mass_abs, ini.mass.abs()),
+                },
+                "momentum": {
+                    "initial": vec3(&p0), "final": vec3(&p1),
+                    "drift": diff_norm(&p0, &p1),
+                },
+                "angular_momentum": {
+                    "initial": vec3(&l0), "final": vec3(&l1),
+                    "drift": diff_norm(&l0, &l1),
+                },
+                "energy": {
+                    "initial": ini.total_energy(), "final": fin.total_energy(),
+                    "drift": e_abs, "relative_drift": rel(e_abs, ini.total_energy().abs()),
+                    "initial_parts": {
+                        "kinetic": ini.kinetic_energy, "elastic": ini.elastic_energy,
+                        "potential": ini.potential_energy,
+                    },
+                    "final_parts": {
+                        "kinetic": fin.kinetic_energy, "elastic": fin.elastic_energy,
+                        "potential": fin.potential_energy,
+                    },
+                },
+            },
+            "warnings": self.warnings,
+        })
+    }
+}
+
+/// The error for a failed guard check.
+fn instability_error(e: &Instability) -> CliError {
+    CliError::Instability(format!("error: numerical {e}"))
+}
+
+/// Progress on stderr: a refreshed line on a terminal, occasional plain lines otherwise,
+/// nothing with `--quiet`.
+struct Progress {
+    quiet: bool,
+    tty: bool,
+    last: Instant,
+    next_fraction: f64,
+    drawn: bool,
+}
+
+impl Progress {
+    fn new(quiet: bool, tty: bool) -> Self {
+        Self {
+            quiet,
+            tty,
+            last: Instant::now(),
+            next_fraction: 0.1,
+            drawn: false,
+        }
+    }
+
+    fn update(&mut self, fraction: f64, time: f64, step: u64, dt: f64, start: Instant) {
+        if self.quiet {
+            return;
+        }
+        let elapsed = start.elapsed().as_secs_f64();
+        let eta = if fraction > 0.0 {
+            elapsed * (1.0 - fraction) / fraction
+        } else {
+            f64::NAN
+        };
+        if self.tty {
+            if self.last.elapsed().as_secs_f64() < 0.1 {
+                return;
+            }
+            self.last = Instant::now();
+            let width = 24;
+            let filled = ((fraction * width as f64).round() as usize).min(width);
+            eprint!(
+                "\r\x1b[2K[{}{}] {:5.1}%  t = {:.4e} s  step {}  dt = {:.3e} s  ETA {}",
+                "#".repeat(filled),
+                "-".repeat(width - filled),
+                100.0 * fraction,
+                time,
+                step,
+                dt,
+                fmt_duration(eta)
+            );
+            self.drawn = true;
+        } else if fraction >= self.next_fraction {
+            while self.next_fraction <= fraction {
+                self.next_fraction += 0.1;
+            }
+            eprintln!(
+                "{:5.1}%  t = {:.4e} s  step {}  dt = {:.3e} s  elapsed {}  ETA {}",
+                100.0 * fraction,
+                time,
+                step,
+                dt,
+                fmt_duration(elapsed),
+                fmt_duration(eta)
+            );
+        }
+    }
+
+    fn finish(&mut self) {
+        if self.drawn {
+            eprintln!();
+        }
+    }
+}
+
+/// `m:ss` or `h:mm:ss`.
+fn fmt_duration(s: f64) -> String {
+    if !s.is_finite() {
+        return "?".into();
+    }
+    let s = s.round() as u64;
+    if s >= 3600 {
+        format!("{}:{:02}:{:02}", s / 3600, (s / 60) % 60, s % 60)
+    } else {
+        format!("{}:{:02}", s / 60, s % 60)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn file_names_round_trip() {
+        assert_eq!(snapshot_name(42), "snap_000042.h5");
+        assert_eq!(numbered("snap_000042.h5", "snap_"), Some(42));
+        assert_eq!(numbered("snap_000042.h5.tmp", "snap_"), None);
+        assert_eq!(numbered(".snap_000042.h5", "snap_"), None);
+        assert_eq!(numbered("ckpt_1234567.h5", "ckpt_"), Some(1234567));
+    }
+
+    #[test]
+    fn schedules_fire_on_multiples() {
+        let mut s = Schedule::new(Interval::Steps { interval_steps: 10 });
+        let fired: Vec<u64> = (1..=35).filter(|&k| s.due(0.0, k)).collect();
+        assert_eq!(fired, vec![10, 20, 30]);
+        let mut s = Schedule::new(Interval::Time { interval: 0.1 });
+        assert!(!s.due(0.05, 1));
+        assert!(s.due(0.1, 2));
+        assert!(!s.due(0.15, 3));
+        assert!(s.due(0.35, 4)); // skips 0.2 and 0.3, next is 0.4
+        assert!(!s.due(0.39, 5));
+        assert!(s.due(0.4, 6));
+    }
+}

@@ -1,0 +1,376 @@
+//! Every class of bad input exits with code 2 and a message naming the key, with the file,
+//! line and column where the key is in the file; nothing panics.
+
+mod common;
+
+use common::*;
+use std::path::Path;
+
+/// Runs `cmd` (check or run) on `text` written to `dir/name` and asserts exit code 2, a
+/// message naming `key`, and — when `line_prefix` is given — the location `file:LINE:COL`
+/// of the line starting with it.
+fn expect_bad(dir: &Path, name: &str, text: &str, cmd: &str, key: &str, line_prefix: Option<&str>) {
+    let path = write(dir, name, text);
+    let out = dir.join(format!("{name}.out"));
+    let p = path.to_string_lossy().into_owned();
+    let o = match cmd {
+        "run" => cli(&["run", &p, "--quiet"]),
+        _ => cli(&["check", &p]),
+    };
+    let err = stderr(&o);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{name}: expected exit code 2, stderr:\n{err}"
+    );
+    assert!(!err.contains("panicked"), "{name}: panic:\n{err}");
+    assert!(
+        err.contains(&format!("`{key}`")),
+        "{name}: message does not name `{key}`:\n{err}"
+    );
+    if let Some(prefix) = line_prefix {
+        let line = line_of(text, prefix);
+        let loc = format!("{p}:{line}:");
+        assert!(err.contains(&loc), "{name}: no location {loc}:\n{err}");
+        // The column follows the line number.
+        let after = &err[err.find(&loc).unwrap() + loc.len()..];
+        assert!(
+            after.starts_with(|c: char| c.is_ascii_digit()),
+            "{name}: no column after {loc}:\n{err}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+fn unknown_keys_are_rejected_at_their_line() {
+    let d = tmpdir("unknown");
+    let t = WATER_2D.replace("name = \"block\"", "name = \"block\"\ncolour = \"red\"");
+    expect_bad(
+        &d,
+        "body.toml",
+        &t,
+        "check",
+        "bodies[0].colour",
+        Some("colour"),
+    );
+    let t = WATER_2D.replace("steps = 60", "steps = 60\ncfll = 0.3");
+    expect_bad(&d, "sim.toml", &t, "check", "simulation.cfll", Some("cfll"));
+    let t = WATER_2D.replace("[output]", "[outputs]");
+    expect_bad(&d, "table.toml", &t, "check", "outputs", Some("[outputs]"));
+}
+
+#[test]
+fn wrong_types_are_rejected() {
+    let d = tmpdir("types");
+    let t = WATER_2D.replace("dx = 0.03125", "dx = \"fine\"");
+    expect_bad(&d, "dx.toml", &t, "check", "grid.dx", Some("dx ="));
+    let t = WATER_2D.replace("steps = 60", "steps = 60.5");
+    expect_bad(
+        &d,
+        "steps.toml",
+        &t,
+        "check",
+        "simulation.steps",
+        Some("steps ="),
+    );
+    let t = WATER_2D.replace("gravity = [0.0, -9.81]", "gravity = [0.0, \"down\"]");
+    expect_bad(
+        &d,
+        "grav.toml",
+        &t,
+        "check",
+        "simulation.gravity[1]",
+        Some("gravity ="),
+    );
+    let t = WATER_2D.replace("shape = \"box\"", "shape = \"torus\"");
+    expect_bad(
+        &d,
+        "shape.toml",
+        &t,
+        "check",
+        "bodies[0].shape",
+        Some("shape ="),
+    );
+    let t = WATER_2D.replace("dim = 2", "dim = 4");
+    expect_bad(&d, "dim.toml", &t, "check", "simulation.dim", Some("dim ="));
+}
+
+#[test]
+fn missing_keys_name_the_key_at_its_table() {
+    let d = tmpdir("missing");
+    let t = WATER_2D.replace("dx = 0.03125\n", "");
+    expect_bad(&d, "dx.toml", &t, "check", "grid.dx", Some("[grid]"));
+    let t = WATER_2D.replace("steps = 60\n", "");
+    expect_bad(
+        &d,
+        "end.toml",
+        &t,
+        "check",
+        "simulation.end_time",
+        Some("[simulation]"),
+    );
+}
+
+#[test]
+fn bad_material_parameters() {
+    let d = tmpdir("materials");
+    for e in ["0.0", "-3e4", "nan", "inf"] {
+        let t = JELLY_3D.replace(
+            "preset = \"jelly\"",
+            &format!("preset = \"jelly\"\nE = {e}"),
+        );
+        expect_bad(&d, "e.toml", &t, "check", "materials[0].E", Some("E ="));
+    }
+    for nu in ["0.5", "-1.0", "0.7", "-2"] {
+        let t = JELLY_3D.replace(
+            "preset = \"jelly\"",
+            &format!("preset = \"jelly\"\nnu = {nu}"),
+        );
+        expect_bad(&d, "nu.toml", &t, "check", "materials[0].nu", Some("nu ="));
+    }
+    for rho in ["0.0", "-1000.0"] {
+        let t = JELLY_3D.replace(
+            "preset = \"jelly\"",
+            &format!("preset = \"jelly\"\ndensity = {rho}"),
+        );
+        expect_bad(
+            &d,
+            "rho.toml",
+            &t,
+            "check",
+            "materials[0].density",
+            Some("density ="),
+        );
+        let t = WATER_2D.replace(
+            "preset = \"water\"",
+            &format!("model = \"tait\"\nbulk_modulus = 1e5\ndensity = {rho}"),
+        );
+        expect_bad(
+            &d,
+            "rho2.toml",
+            &t,
+            "check",
+            "materials[0].density",
+            Some("density ="),
+        );
+    }
+    // A key that does not apply to the model.
+    let t = WATER_2D.replace("preset = \"water\"", "preset = \"water\"\ntheta_c = 0.02");
+    expect_bad(
+        &d,
+        "theta.toml",
+        &t,
+        "check",
+        "materials[0].theta_c",
+        Some("theta_c"),
+    );
+    // An unknown material name in a body.
+    let t = WATER_2D.replace("material = \"water\"", "material = \"lava\"");
+    expect_bad(
+        &d,
+        "lava.toml",
+        &t,
+        "check",
+        "bodies[0].material",
+        Some("material ="),
+    );
+}
+
+#[test]
+fn bad_grid_spacing() {
+    let d = tmpdir("dx");
+    for dx in ["0.0", "-0.1", "nan", "1e-300"] {
+        let t = WATER_2D.replace("dx = 0.03125", &format!("dx = {dx}"));
+        expect_bad(&d, "dx.toml", &t, "check", "grid.dx", Some("dx ="));
+    }
+}
+
+#[test]
+fn bodies_outside_the_grid_or_without_particles() {
+    let d = tmpdir("bodies");
+    let t = WATER_2D.replace("max = [0.3, 0.3]", "max = [0.3, 0.7]");
+    expect_bad(
+        &d,
+        "outside.toml",
+        &t,
+        "check",
+        "bodies[0].max",
+        Some("max = [0.3, 0.7]"),
+    );
+    let t = WATER_2D.replace("min = [0.1, 0.1]", "min = [-0.2, 0.1]");
+    expect_bad(
+        &d,
+        "below.toml",
+        &t,
+        "check",
+        "bodies[0].min",
+        Some("min = [-0.2"),
+    );
+    let t = SNOW_2D.replace("center = [0.2, 0.2]", "center = [0.2, 0.49]");
+    expect_bad(
+        &d,
+        "sphere.toml",
+        &t,
+        "check",
+        "bodies[0].center",
+        Some("center = [0.2, 0.49]"),
+    );
+    // Thinner than the particle spacing: no particles.
+    let t = WATER_2D.replace("max = [0.3, 0.3]", "max = [0.1005, 0.3]");
+    expect_bad(
+        &d,
+        "empty.toml",
+        &t,
+        "check",
+        "bodies[0].shape",
+        Some("shape ="),
+    );
+    let t = SNOW_2D.replace("radius = 0.06", "radius = 0.0005");
+    expect_bad(
+        &d,
+        "tiny.toml",
+        &t,
+        "check",
+        "bodies[0].shape",
+        Some("shape ="),
+    );
+}
+
+#[test]
+fn missing_or_unreadable_meshes() {
+    let d = tmpdir("mesh");
+    // Missing file.
+    expect_bad(
+        &d,
+        "missing.toml",
+        MESH_3D,
+        "check",
+        "bodies[0].file",
+        Some("file ="),
+    );
+    // A directory where the file should be.
+    std::fs::create_dir_all(d.join("cube.obj")).expect("mkdir");
+    expect_bad(
+        &d,
+        "dir.toml",
+        MESH_3D,
+        "check",
+        "bodies[0].file",
+        Some("file ="),
+    );
+    std::fs::remove_dir_all(d.join("cube.obj")).expect("rmdir");
+    // Not an OBJ mesh.
+    write(&d, "cube.obj", "v 1 2\nf 1 2 3\n");
+    expect_bad(
+        &d,
+        "garbage.toml",
+        MESH_3D,
+        "check",
+        "bodies[0].file",
+        Some("file ="),
+    );
+    // A good mesh passes.
+    write(&d, "cube.obj", CUBE_OBJ);
+    let p = write(&d, "good.toml", MESH_3D);
+    let o = cli(&["check", &p.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // A mesh in 2D.
+    let t = WATER_2D.replace(
+        "shape = \"box\"\nmin = [0.1, 0.1]\nmax = [0.3, 0.3]",
+        "shape = \"mesh\"\nfile = \"cube.obj\"",
+    );
+    expect_bad(
+        &d,
+        "mesh2d.toml",
+        &t,
+        "check",
+        "bodies[0].shape",
+        Some("shape ="),
+    );
+}
+
+#[test]
+fn solvers_not_available_yet() {
+    let d = tmpdir("solver");
+    for s in ["tlmpm", "diq"] {
+        let t = WATER_2D.replace("dim = 2", &format!("dim = 2\nsolver = \"{s}\""));
+        expect_bad(
+            &d,
+            "s.toml",
+            &t,
+            "check",
+            "simulation.solver",
+            Some("solver ="),
+        );
+        let o = cli(&["check", &d.join("s.toml").to_string_lossy()]);
+        assert!(stderr(&o).contains("not available yet"), "{}", stderr(&o));
+    }
+}
+
+#[test]
+fn unwritable_output_directory() {
+    let d = tmpdir("outdir");
+    let blocker = write(&d, "a_file", "not a directory");
+    let bad = blocker.join("sub");
+    let t = WATER_2D.replace(
+        "[output]",
+        &format!("[output]\ndirectory = \"{}\"", bad.display()),
+    );
+    expect_bad(
+        &d,
+        "out.toml",
+        &t,
+        "run",
+        "output.directory",
+        Some("directory ="),
+    );
+    // The same through --out: the message names the flag.
+    let p = write(&d, "ok.toml", WATER_2D);
+    let o = cli(&[
+        "run",
+        &p.to_string_lossy(),
+        "--out",
+        &bad.to_string_lossy(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--out"), "{}", stderr(&o));
+}
+
+#[test]
+fn missing_scene_file_and_bad_arguments() {
+    let o = cli(&["check", "/nonexistent/scene.toml"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("/nonexistent/scene.toml"));
+    let o = cli(&["run"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = cli(&["info", "/nonexistent/file.h5"]);
+    assert_eq!(o.status.code(), Some(2));
+    let d = tmpdir("args");
+    let p = write(&d, "ok.toml", WATER_2D);
+    let o = cli(&["run", &p.to_string_lossy(), "--threads", "0"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = cli(&["render", &d.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(2), "no snapshots is bad input");
+}
+
+#[test]
+fn fixed_dt_above_the_stable_bound_warns() {
+    let d = tmpdir("dtwarn");
+    let t = WATER_2D.replace("steps = 60", "steps = 1\ndt = 0.01");
+    let p = write(&d, "dt.toml", &t);
+    let out = d.join("out");
+    let o = cli(&[
+        "run",
+        &p.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+        "--quiet",
+    ]);
+    assert!(
+        stderr(&o).contains("warning: the fixed dt"),
+        "{}",
+        stderr(&o)
+    );
+}

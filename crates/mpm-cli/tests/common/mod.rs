@@ -1,0 +1,199 @@
+//! Helpers shared by the `mpm-cli` integration tests.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The built `mpm-cli` binary.
+pub fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_mpm-cli")
+}
+
+/// The workspace's `scenes/` directory.
+pub fn scenes_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
+}
+
+/// A fresh, empty temporary directory unique to this test process and `name`.
+pub fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("mpm-cli-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("create temp dir");
+    d
+}
+
+/// Writes `text` to `dir/name` and returns the path.
+pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write file");
+    p
+}
+
+/// Runs the binary with `args`.
+pub fn cli(args: &[&str]) -> Output {
+    Command::new(bin())
+        .args(args)
+        .output()
+        .expect("run mpm-cli")
+}
+
+/// Stderr as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Stdout as text.
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// A small, fast 2D water scene (steps-driven).
+pub const WATER_2D: &str = r#"
+[simulation]
+dim = 2
+steps = 60
+gravity = [0.0, -9.81]
+
+[grid]
+min = [0.0, 0.0]
+max = [0.5, 0.5]
+dx = 0.03125
+
+[[materials]]
+name = "water"
+preset = "water"
+
+[[bodies]]
+name = "block"
+material = "water"
+shape = "box"
+min = [0.1, 0.1]
+max = [0.3, 0.3]
+
+[[boundaries]]
+type = "walls"
+contact = "separate"
+
+[output]
+interval_steps = 20
+"#;
+
+/// A small 2D snow scene (F and plastic state), with checkpoints.
+pub const SNOW_2D: &str = r#"
+[simulation]
+dim = 2
+steps = 40
+cfl = 0.4
+gravity = [0.0, -9.81]
+
+[grid]
+min = [0.0, 0.0]
+max = [0.5, 0.5]
+dx = 0.015625
+
+[[materials]]
+name = "snow"
+preset = "snow"
+
+[[bodies]]
+name = "ball"
+material = "snow"
+shape = "sphere"
+center = [0.2, 0.2]
+radius = 0.06
+jitter = 0.2
+seed = 3
+velocity = [3.0, -1.0]
+angular_velocity = 5.0
+
+[[boundaries]]
+type = "walls"
+contact = "sticky"
+
+[[boundaries]]
+type = "sphere"
+center = [0.4, 0.15]
+radius = 0.05
+contact = "slip"
+friction = 0.3
+velocity = [-0.5, 0.0]
+
+[output]
+interval_steps = 10
+
+[checkpoint]
+interval_steps = 25
+keep = 5
+"#;
+
+/// A small 3D jelly scene.
+pub const JELLY_3D: &str = r#"
+[simulation]
+dim = 3
+steps = 20
+
+[grid]
+min = [0.0, 0.0, 0.0]
+max = [0.5, 0.5, 0.5]
+dx = 0.05
+
+[[materials]]
+name = "jelly"
+preset = "jelly"
+
+[[bodies]]
+name = "cube"
+material = "jelly"
+shape = "box"
+min = [0.15, 0.15, 0.15]
+max = [0.35, 0.35, 0.35]
+velocity = [0.0, -1.0, 0.0]
+velocity_gradient = [[0.0, 0.1, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.1]]
+
+[[boundaries]]
+type = "walls"
+
+[output]
+interval_steps = 10
+"#;
+
+/// The unit cube [0, 1]³ as an OBJ file (6 quads).
+pub const CUBE_OBJ: &str =
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+/// A 3D scene with a mesh body (`cube.obj` next to the scene file).
+pub const MESH_3D: &str = r#"
+[simulation]
+dim = 3
+steps = 5
+
+[grid]
+min = [0.0, 0.0, 0.0]
+max = [0.5, 0.5, 0.5]
+dx = 0.05
+
+[[materials]]
+name = "jelly"
+preset = "jelly"
+
+[[bodies]]
+name = "mesh"
+material = "jelly"
+shape = "mesh"
+file = "cube.obj"
+scale = 0.2
+rotation = [0.0, 0.0, 45.0]
+translation = [0.25, 0.15, 0.15]
+
+[[boundaries]]
+type = "walls"
+"#;
+
+/// Line number (1-based) of the first line of `text` starting with `prefix`.
+pub fn line_of(text: &str, prefix: &str) -> usize {
+    text.lines()
+        .position(|l| l.trim_start().starts_with(prefix))
+        .map(|i| i + 1)
+        .unwrap_or_else(|| panic!("no line starting with {prefix:?}"))
+}

@@ -1,0 +1,161 @@
+//! Resume is bitwise: N + M steps straight equal N steps, a checkpoint, a resume and M steps,
+//! in every particle column (compared by `f64::to_bits`), time and step count.
+
+mod common;
+
+use common::*;
+use mpm_cli::run::numbered_files;
+use mpm_io::{read_file, Data, Snapshot};
+use std::path::Path;
+
+fn assert_bitwise(a: &Snapshot, b: &Snapshot, what: &str) {
+    assert_eq!(a.header.step, b.header.step, "{what}: step");
+    assert_eq!(
+        a.header.time.to_bits(),
+        b.header.time.to_bits(),
+        "{what}: time"
+    );
+    let names = |s: &Snapshot| s.fields.iter().map(|f| f.name.clone()).collect::<Vec<_>>();
+    assert_eq!(names(a), names(b), "{what}: fields");
+    for (fa, fb) in a.fields.iter().zip(&b.fields) {
+        match (&fa.data, &fb.data) {
+            (
+                Data::F64 {
+                    values: va,
+                    shape: sa,
+                },
+                Data::F64 {
+                    values: vb,
+                    shape: sb,
+                },
+            ) => {
+                assert_eq!(sa, sb, "{what}: shape of {}", fa.name);
+                for (i, (x, y)) in va.iter().zip(vb).enumerate() {
+                    assert_eq!(
+                        x.to_bits(),
+                        y.to_bits(),
+                        "{what}: {}[{i}]: {x} vs {y}",
+                        fa.name
+                    );
+                }
+            }
+            (Data::U32 { values: va, .. }, Data::U32 { values: vb, .. }) => {
+                assert_eq!(va, vb, "{what}: {}", fa.name)
+            }
+            _ => panic!("{what}: {} differs in type", fa.name),
+        }
+    }
+}
+
+fn run(scene: &Path, out: &Path, extra: &[&str]) {
+    let mut args = vec![
+        "run".to_string(),
+        scene.to_string_lossy().into_owned(),
+        "--out".into(),
+        out.to_string_lossy().into_owned(),
+        "--quiet".into(),
+    ];
+    args.extend(extra.iter().map(|s| s.to_string()));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = cli(&args);
+    assert_eq!(o.status.code(), Some(0), "{:?}: {}", args, stderr(&o));
+}
+
+/// `text` must run for `total` steps and checkpoint at step `n`.
+fn check_resume(name: &str, text: &str, n: u64, total: u64) {
+    let d = tmpdir(&format!("resume-{name}"));
+    let full = write(&d, "full.toml", text);
+    let straight = d.join("straight");
+    run(&full, &straight, &[]);
+    let end = read_file(&straight.join(format!("ckpt_{total:06}.h5"))).expect("final checkpoint");
+    let ck = straight.join(format!("ckpt_{n:06}.h5"));
+    assert!(ck.exists(), "checkpoint at step {n}");
+
+    // Resume into another directory, on one thread.
+    let resumed = d.join("resumed");
+    run(
+        &full,
+        &resumed,
+        &["--resume", &ck.to_string_lossy(), "--threads", "1"],
+    );
+    let other = read_file(&resumed.join(format!("ckpt_{total:06}.h5"))).expect("resumed end");
+    assert_bitwise(&end, &other, &format!("{name}: resumed in a new directory"));
+
+    // N steps alone, then resume in the same directory with the full step count.
+    let short_text = text.replace(&format!("steps = {total}"), &format!("steps = {n}"));
+    assert_ne!(short_text, text);
+    let short = write(&d, "short.toml", &short_text);
+    let same = d.join("same");
+    run(&short, &same, &[]);
+    let ck = same.join(format!("ckpt_{n:06}.h5"));
+    run(&full, &same, &["--resume", &ck.to_string_lossy()]);
+    let again = read_file(&same.join(format!("ckpt_{total:06}.h5"))).expect("end");
+    assert_bitwise(&end, &again, &format!("{name}: N steps, then resume"));
+    // The last snapshots agree too, and the series has no gaps.
+    let last = |dir: &Path| {
+        read_file(&numbered_files(dir, "snap_").last().expect("snap").1).expect("read")
+    };
+    assert_bitwise(
+        &last(&straight),
+        &last(&same),
+        &format!("{name}: last snapshot"),
+    );
+    let frames: Vec<u64> = numbered_files(&same, "snap_").iter().map(|s| s.0).collect();
+    assert_eq!(frames, (0..frames.len() as u64).collect::<Vec<_>>());
+}
+
+#[test]
+fn resume_snow_2d_is_bitwise() {
+    check_resume("snow", SNOW_2D, 25, 40);
+}
+
+#[test]
+fn resume_flip_water_2d_is_bitwise() {
+    let t = WATER_2D.replace(
+        "gravity = [0.0, -9.81]",
+        "gravity = [0.0, -9.81]\ntransfer = \"flip\"\nvolume_update = \"reestimate\"",
+    ) + "\n[checkpoint]\ninterval_steps = 30\n";
+    check_resume("water", &t, 30, 60);
+}
+
+#[test]
+fn resume_jelly_3d_is_bitwise() {
+    let t = JELLY_3D.to_string() + "\n[checkpoint]\ninterval_steps = 8\nkeep = 10\n";
+    check_resume("jelly", &t, 8, 20);
+}
+
+#[test]
+fn resume_rejects_files_that_do_not_fit() {
+    let d = tmpdir("resume-bad");
+    let snow = write(&d, "snow.toml", SNOW_2D);
+    let out = d.join("out");
+    run(&snow, &out, &[]);
+    let try_resume = |scene: &Path, file: &Path| {
+        let o = cli(&[
+            "run",
+            &scene.to_string_lossy(),
+            "--out",
+            &d.join("other").to_string_lossy(),
+            "--resume",
+            &file.to_string_lossy(),
+            "--quiet",
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let ck = out.join("ckpt_000025.h5");
+    // A snapshot is not a checkpoint.
+    assert!(try_resume(&snow, &out.join("snap_000001.h5")).contains("not a checkpoint"));
+    // Another dimension.
+    let jelly = write(&d, "jelly.toml", JELLY_3D);
+    assert!(try_resume(&jelly, &ck).contains("2D"));
+    // Other particle columns (a fluid scene has J, not F and plastic state).
+    let water = write(&d, "water.toml", WATER_2D);
+    try_resume(&water, &ck);
+    // A grid the particles do not fit in.
+    let small = SNOW_2D.replace("max = [0.5, 0.5]", "max = [0.28, 0.5]");
+    let small = write(&d, "small.toml", &small);
+    assert!(try_resume(&small, &ck).contains("does not fit"));
+    // A missing file.
+    try_resume(&snow, &d.join("nope.h5"));
+}
