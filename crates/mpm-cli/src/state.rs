@@ -67,19 +67,10 @@ where
 {
     (0..particles.len())
         .map(|p| match materials.get(particles.material[p] as usize) {
-            Some(Material::Fluid(f)) => {
-                f.pressure(particles.jacobian.as_ref().map_or(1.0, |j| j[p]))
-            }
+            Some(Material::Fluid(f)) => f.pressure(particles.jacobian_of(p)),
             Some(Material::Solid(s)) => {
-                let f = particles
-                    .def_grad
-                    .as_ref()
-                    .map_or(Matrix::<D>::identity(), |f| f[p]);
-                let state = particles
-                    .plastic
-                    .as_ref()
-                    .map_or(PlasticState::default(), |s| s[p]);
-                let tau = s.kirchhoff(&f, &state);
+                let f = particles.def_grad_of(p);
+                let tau = s.kirchhoff(&f, &particles.plastic_of(p));
                 -tau.trace() / (D as Real * det(&f))
             }
             None => 0.0,

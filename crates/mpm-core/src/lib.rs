@@ -24,5 +24,8 @@ pub mod diagnostics;
 pub mod timestep;
 pub mod volume;
 
+#[cfg(test)]
+mod test_util;
+
 pub use diagnostics::Diagnostics;
 pub use timestep::{OnInstability, TimeStepPolicy};

@@ -136,6 +136,28 @@ impl<const D: usize> Particles<D> {
         }
     }
 
+    /// Deformation gradient of particle `p` (identity when the column does not exist).
+    #[inline]
+    pub fn def_grad_of(&self, p: usize) -> Matrix<D> {
+        self.def_grad
+            .as_ref()
+            .map_or(Matrix::<D>::identity(), |f| f[p])
+    }
+
+    /// Volume ratio J of particle `p` from the `J` column (1 when the column does not exist).
+    #[inline]
+    pub fn jacobian_of(&self, p: usize) -> Real {
+        self.jacobian.as_ref().map_or(1.0, |j| j[p])
+    }
+
+    /// Plastic state of particle `p` (virgin when the column does not exist).
+    #[inline]
+    pub fn plastic_of(&self, p: usize) -> PlasticState {
+        self.plastic
+            .as_ref()
+            .map_or(PlasticState::default(), |s| s[p])
+    }
+
     /// Bytes of particle storage per particle for the columns that exist.
     pub fn bytes_per_particle(&self) -> usize {
         let r = std::mem::size_of::<Real>();

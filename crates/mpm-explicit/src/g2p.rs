@@ -122,11 +122,7 @@ where
         let grad_step = Matrix::<D>::identity() + c * dt;
         match material {
             Material::Solid(s) => {
-                let f_old = particles
-                    .def_grad
-                    .as_ref()
-                    .map_or(Matrix::<D>::identity(), |f| f[p]);
-                let f_trial = grad_step * f_old;
+                let f_trial = grad_step * particles.def_grad_of(p);
                 u.f = match &particles.plastic {
                     Some(states) => {
                         u.plastic = states[p];
@@ -137,8 +133,7 @@ where
                 u.j = Dim::<D>::det(&u.f);
             }
             Material::Fluid(_) => {
-                let j_old = particles.jacobian.as_ref().map_or(1.0, |j| j[p]);
-                u.j = (1.0 + dt * c.trace()) * j_old;
+                u.j = (1.0 + dt * c.trace()) * particles.jacobian_of(p);
                 if let Some(f) = &particles.def_grad {
                     u.f = f[p];
                 }

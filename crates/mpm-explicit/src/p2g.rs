@@ -3,7 +3,6 @@
 
 use crate::blocks::Blocks;
 use crate::params::{BodyForce, Transfer};
-use mpm_core::material::PlasticState;
 use mpm_core::{
     Dim, DimOps, GridNodes, GridSpec, Kernel, Material, Matrix, Particles, Real, Stencil, Vector,
 };
@@ -18,21 +17,8 @@ where
     Dim<D>: DimOps<D>,
 {
     match &materials[particles.material[p] as usize] {
-        Material::Solid(s) => {
-            let f = particles
-                .def_grad
-                .as_ref()
-                .map_or(Matrix::<D>::identity(), |f| f[p]);
-            let state = particles
-                .plastic
-                .as_ref()
-                .map_or(PlasticState::default(), |s| s[p]);
-            s.kirchhoff(&f, &state)
-        }
-        Material::Fluid(fl) => {
-            let j = particles.jacobian.as_ref().map_or(1.0, |j| j[p]);
-            fl.kirchhoff(j, &particles.affine[p])
-        }
+        Material::Solid(s) => s.kirchhoff(&particles.def_grad_of(p), &particles.plastic_of(p)),
+        Material::Fluid(fl) => fl.kirchhoff(particles.jacobian_of(p), &particles.affine[p]),
     }
 }
 

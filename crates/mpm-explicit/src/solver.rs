@@ -6,7 +6,6 @@ use crate::grid_update;
 use crate::p2g;
 use crate::params::{ExplicitParams, Transfer, VolumeUpdate};
 use mpm_core::boundary::Boundaries;
-use mpm_core::material::PlasticState;
 use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::volume::density_at;
 use mpm_core::{
@@ -294,14 +293,9 @@ where
         let ps = &self.particles;
         match &self.materials[ps.material[p] as usize] {
             Material::Solid(s) => {
-                let j = ps.def_grad.as_ref().map_or(1.0, |f| Dim::<D>::det(&f[p]));
-                let state = ps
-                    .plastic
-                    .as_ref()
-                    .map_or(PlasticState::default(), |s| s[p]);
-                s.wave_speed(j, &state)
+                s.wave_speed(Dim::<D>::det(&ps.def_grad_of(p)), &ps.plastic_of(p))
             }
-            Material::Fluid(f) => f.sound_speed(ps.jacobian.as_ref().map_or(1.0, |j| j[p])),
+            Material::Fluid(f) => f.sound_speed(ps.jacobian_of(p)),
         }
     }
 

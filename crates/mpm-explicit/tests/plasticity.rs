@@ -109,7 +109,10 @@ fn sand_stays_inside_its_yield_cone() {
         .fold(Real::NEG_INFINITY, Real::max);
     assert!(worst <= 1e-10, "yield function {worst:e} > 0");
     let yielded = states.iter().filter(|st| st.q > 0.0).count();
-    assert!(yielded > states.len() / 10, "only {yielded} particles yielded");
+    assert!(
+        yielded > states.len() / 10,
+        "only {yielded} particles yielded"
+    );
     assert!(
         spread(&s) > 1.3 * width0,
         "column did not collapse: {} -> {}",

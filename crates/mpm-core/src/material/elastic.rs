@@ -320,29 +320,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Deterministic uniform numbers in [0, 1) (64-bit LCG).
-    struct Lcg(u64);
-
-    impl Lcg {
-        fn next(&mut self) -> Real {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as Real / (1u64 << 53) as Real
-        }
-        /// Entries uniform in [−a, a].
-        fn matrix<const D: usize>(&mut self, a: Real) -> Matrix<D> {
-            Matrix::<D>::from_fn(|_, _| a * (2.0 * self.next() - 1.0))
-        }
-        fn rotation<const D: usize>(&mut self) -> Matrix<D>
-        where
-            Dim<D>: DimOps<D>,
-        {
-            polar(&self.matrix::<D>(1.0)).0
-        }
-    }
+    use crate::test_util::Lcg;
 
     fn lame() -> Lame {
         Lame::from_young_poisson(1e5, 0.3)

@@ -1,4 +1,6 @@
 //! Scene builders shared by the integration tests.
+// Each test crate compiles this module and uses only some of its builders.
+#![allow(dead_code)]
 
 use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
 use mpm_core::{Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, Vector};
