@@ -1,0 +1,171 @@
+//! Criterion benchmarks of the explicit MLS-MPM hot paths (DESIGN §9).
+//!
+//! Groups, each for 2D and 3D at about 64k and 256k particles (scenes in `mpm_benches`):
+//!
+//! - `p2g`: binning (`sort_particles`) plus `particle_to_grid`, repeated on the same state;
+//! - `g2p`: `grid_to_particle` plus `commit`; each iteration first runs an untimed sort, P2G and
+//!   grid update so the gather always reads a grid that matches the particles;
+//! - `step`: a full `ExplicitSolver::step`, the scene evolving from iteration to iteration.
+//!
+//! Throughput is reported in particles per second. After the `step` runs the accumulated stage
+//! timings of the solver are printed to stderr. Run with `cargo bench -p mpm-benches`.
+
+use criterion::measurement::WallTime;
+use criterion::{BenchmarkGroup, Criterion, SamplingMode, Throughput};
+use mpm_benches::{memory, scene_2d, scene_3d, Size};
+use mpm_core::{Dim, DimOps, TimeStepPolicy};
+use mpm_explicit::ExplicitSolver;
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+/// Applies the common, deliberately short, sampling settings to a group.
+fn configure(group: &mut BenchmarkGroup<'_, WallTime>) {
+    group
+        .sample_size(10)
+        .sampling_mode(SamplingMode::Flat)
+        .warm_up_time(Duration::from_secs(2))
+        .measurement_time(Duration::from_secs(5));
+}
+
+/// The fixed time step of a benchmark scene (s).
+fn fixed_dt<const D: usize>(solver: &ExplicitSolver<D>) -> f64 {
+    match solver.params.time_step {
+        TimeStepPolicy::Fixed { dt } => dt,
+        TimeStepPolicy::Adaptive { .. } => unreachable!("benchmark scenes use a fixed dt"),
+    }
+}
+
+/// The scenes in benchmark order: (name, dimension, size).
+fn scenes() -> impl Iterator<Item = (String, usize, Size)> {
+    [2, 3]
+        .into_iter()
+        .flat_map(|d| Size::ALL.map(|s| (format!("{d}d_{}", s.label()), d, s)))
+}
+
+fn bench_p2g_on<const D: usize>(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    mut solver: ExplicitSolver<D>,
+) where
+    Dim<D>: DimOps<D>,
+{
+    let dt = fixed_dt(&solver);
+    group.throughput(Throughput::Elements(solver.particles.len() as u64));
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            solver.sort_particles();
+            solver.particle_to_grid(black_box(dt));
+        })
+    });
+    black_box(solver.grid().total_mass());
+}
+
+fn bench_g2p_on<const D: usize>(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    mut solver: ExplicitSolver<D>,
+) where
+    Dim<D>: DimOps<D>,
+{
+    let dt = fixed_dt(&solver);
+    group.throughput(Throughput::Elements(solver.particles.len() as u64));
+    group.bench_function(name, |b| {
+        b.iter_custom(|iters| {
+            let mut timed = Duration::ZERO;
+            for _ in 0..iters {
+                solver.sort_particles();
+                solver.particle_to_grid(dt);
+                if let Err(e) = solver.update_grid(dt) {
+                    panic!("{name}: grid update failed: {e:?}");
+                }
+                let t = Instant::now();
+                if let Err(e) = solver.grid_to_particle(black_box(dt)) {
+                    panic!("{name}: G2P guard check failed: {e:?}");
+                }
+                solver.commit();
+                timed += t.elapsed();
+            }
+            timed
+        })
+    });
+}
+
+fn bench_step_on<const D: usize>(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    mut solver: ExplicitSolver<D>,
+) where
+    Dim<D>: DimOps<D>,
+{
+    let n = solver.particles.len();
+    group.throughput(Throughput::Elements(n as u64));
+    group.bench_function(name, |b| {
+        b.iter(|| match solver.step() {
+            Ok(info) => black_box(info),
+            Err(e) => panic!("{name}: step failed: {e}"),
+        })
+    });
+    if solver.steps == 0 {
+        return; // Filtered out by the command line.
+    }
+    let total: f64 = solver.stats.table().iter().map(|(_, s)| s).sum();
+    let stages = solver
+        .stats
+        .table()
+        .iter()
+        .map(|(stage, s)| format!("{stage} {:.1}%", 100.0 * s / total))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let mem = memory(&solver);
+    eprintln!(
+        "{name}: {n} particles, dt = {:.3e} s, {} steps ({:.4} s simulated); stages: {stages}; \
+         memory: {} B/particle particles + {} B/particle scratch + {:.1} B/particle grid = {:.1} B/particle",
+        fixed_dt(&solver),
+        solver.steps,
+        solver.time,
+        mem.particle_bytes,
+        mem.scratch_bytes,
+        mem.grid_bytes as f64 / n as f64,
+        mem.total_per_particle(),
+    );
+}
+
+/// Runs `bench` for every scene of [`scenes`], building each solver fresh.
+fn for_each_scene(
+    c: &mut Criterion,
+    group_name: &str,
+    bench2: fn(&mut BenchmarkGroup<'_, WallTime>, &str, ExplicitSolver<2>),
+    bench3: fn(&mut BenchmarkGroup<'_, WallTime>, &str, ExplicitSolver<3>),
+) {
+    let mut group = c.benchmark_group(group_name);
+    configure(&mut group);
+    for (name, dim, size) in scenes() {
+        if dim == 2 {
+            bench2(&mut group, &name, scene_2d(size));
+        } else {
+            bench3(&mut group, &name, scene_3d(size));
+        }
+    }
+    group.finish();
+}
+
+fn p2g(c: &mut Criterion) {
+    eprintln!("rayon threads: {}", rayon::current_num_threads());
+    for_each_scene(c, "p2g", bench_p2g_on::<2>, bench_p2g_on::<3>);
+}
+
+fn g2p(c: &mut Criterion) {
+    for_each_scene(c, "g2p", bench_g2p_on::<2>, bench_g2p_on::<3>);
+}
+
+fn step(c: &mut Criterion) {
+    for_each_scene(c, "step", bench_step_on::<2>, bench_step_on::<3>);
+}
+
+fn main() {
+    let mut c = Criterion::default().configure_from_args();
+    p2g(&mut c);
+    g2p(&mut c);
+    step(&mut c);
+    c.final_summary();
+}

@@ -1,0 +1,341 @@
+//! Shared scene set-up for the criterion benchmarks of the explicit MLS-MPM solver
+//! (`benches/benches/explicit.rs`, DESIGN §9).
+//!
+//! Two scenes, each at two resolutions chosen so that the particle counts are exactly
+//! 2¹⁶ = 65 536 / 64 000 ("64k") and 2¹⁸ = 262 144 ("256k"):
+//!
+//! | scene | size | grid cells | particles |
+//! |---|---|---|---|
+//! | [`scene_2d`]: Neo-Hookean jelly above a water block, unit box | [`Size::K64`] | 256² | 65 536 |
+//! | | [`Size::K256`] | 512² | 262 144 |
+//! | [`scene_3d`]: Neo-Hookean jelly cube, unit box | [`Size::K64`] | 40³ | 64 000 |
+//! | | [`Size::K256`] | 64³ | 262 144 |
+//!
+//! Both use the default quadratic B-spline kernel with APIC transfer, gravity `−9.81 m/s²` along
+//! axis 1, domain walls (separating contact, 3 node layers) and a fixed time step of 0.4 times the
+//! solver's own stable bound at the start ([`ExplicitSolver::stable_dt`]), so a few hundred
+//! repeated steps stay well inside the CFL limit while the jelly falls. Particles are placed on a
+//! regular lattice of 2 particles per cell per axis (4 per cell in 2D, 8 per cell in 3D), aligned
+//! to the grid cells, every block sitting a whole number of cells from the origin so both
+//! resolutions of a scene are the same physical set-up.
+
+use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
+use mpm_core::material::{ElasticModel, FluidMaterial, Lame, PlasticState, SolidMaterial, Tait};
+use mpm_core::{
+    Columns, Dim, DimOps, GridSpec, Material, Matrix, ParticleInit, Particles, Real,
+    TimeStepPolicy, Vector, Violation,
+};
+use mpm_explicit::{ExplicitParams, ExplicitSolver};
+
+/// Particles per cell per axis in every scene.
+pub const PER_AXIS: usize = 2;
+
+/// Fraction of the solver's stable step bound used as the fixed time step.
+pub const DT_FRACTION: Real = 0.4;
+
+/// Standard gravity (m/s²), applied along −axis 1.
+pub const GRAVITY: Real = 9.81;
+
+/// Problem size of a scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Size {
+    /// About 64k particles: 65 536 in 2D, 64 000 in 3D.
+    K64,
+    /// About 256k particles: 262 144 in 2D and 3D.
+    K256,
+}
+
+impl Size {
+    /// Both sizes, smallest first.
+    pub const ALL: [Size; 2] = [Size::K64, Size::K256];
+
+    /// Short label used in benchmark names ("64k", "256k").
+    pub fn label(self) -> &'static str {
+        match self {
+            Size::K64 => "64k",
+            Size::K256 => "256k",
+        }
+    }
+
+    /// Grid cells per axis of the unit box for a `dim`-dimensional scene.
+    pub fn cells(self, dim: usize) -> usize {
+        match (dim, self) {
+            (2, Size::K64) => 256,
+            (2, Size::K256) => 512,
+            (_, Size::K64) => 40,
+            (_, Size::K256) => 64,
+        }
+    }
+
+    /// Exact number of particles of the `dim`-dimensional scene at this size.
+    pub fn particles(self, dim: usize) -> usize {
+        let n = self.cells(dim);
+        if dim == 2 {
+            // Two blocks of n/2 × n/4 cells, 4 particles per cell.
+            2 * (n / 2) * (n / 4) * PER_AXIS * PER_AXIS
+        } else {
+            // One cube of (n/2)³ cells, 8 particles per cell.
+            (n / 2).pow(3) * PER_AXIS.pow(3)
+        }
+    }
+}
+
+/// Neo-Hookean jelly: E = 0.1 MPa, ν = 0.3, ρ = 1000 (P-wave speed ≈ 11.6 m/s).
+pub fn jelly() -> Material {
+    Material::Solid(SolidMaterial {
+        density: 1000.0,
+        elastic: ElasticModel::NeoHookean(Lame::from_young_poisson(1e5, 0.3)),
+        plasticity: Default::default(),
+    })
+}
+
+/// Weakly compressible water: Tait EOS with K = 0.2 MPa, γ = 7, ρ₀ = 1000, μ = 10⁻³ Pa·s
+/// (sound speed ≈ 14.1 m/s).
+pub fn water() -> Material {
+    Material::Fluid(FluidMaterial {
+        density: 1000.0,
+        eos: Tait {
+            bulk_modulus: 2e5,
+            gamma: 7.0,
+        },
+        viscosity: 1e-3,
+    })
+}
+
+/// Fills the grid-aligned box of cells `[lo, hi)` (cell indices) of `spec` with
+/// [`PER_AXIS`]`^D` particles per cell at rest, of material `material` and density `rho`.
+fn fill_cells<const D: usize>(
+    particles: &mut Particles<D>,
+    spec: &GridSpec<D>,
+    lo: [usize; D],
+    hi: [usize; D],
+    material: u32,
+    rho: Real,
+) {
+    let h = spec.dx / PER_AXIS as Real;
+    let counts: [usize; D] = std::array::from_fn(|a| (hi[a] - lo[a]) * PER_AXIS);
+    let total: usize = counts.iter().product();
+    let vol = h.powi(D as i32);
+    for k in 0..total {
+        let mut r = k;
+        let x = Vector::<D>::from_fn(|a, _| {
+            let i = r % counts[a];
+            r /= counts[a];
+            spec.origin[a] + lo[a] as Real * spec.dx + (i as Real + 0.5) * h
+        });
+        particles.push(ParticleInit {
+            x,
+            v: Vector::<D>::zeros(),
+            mass: rho * vol,
+            volume0: vol,
+            material,
+            affine: Matrix::<D>::zeros(),
+        });
+    }
+}
+
+/// Builds the solver for a unit box of `n` cells per axis with the given particles, then fixes
+/// the time step at [`DT_FRACTION`] of the stable bound.
+fn build<const D: usize>(
+    n: usize,
+    materials: Vec<Material>,
+    fill: impl FnOnce(&mut Particles<D>, &GridSpec<D>),
+) -> ExplicitSolver<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    let spec = GridSpec::new(Vector::<D>::zeros(), 1.0 / n as Real, [n + 1; D]);
+    let mut particles = Particles::<D>::new(Columns::for_materials(&materials));
+    fill(&mut particles, &spec);
+    let mut gravity = Vector::<D>::zeros();
+    gravity[1] = -GRAVITY;
+    let params = ExplicitParams {
+        gravity,
+        // Placeholder; replaced below once the solver can evaluate its stable bound.
+        time_step: TimeStepPolicy::Fixed { dt: 1e-6 },
+        ..ExplicitParams::default()
+    };
+    let boundaries = Boundaries {
+        walls: Some(DomainWalls {
+            contact: Contact {
+                kind: ContactKind::Separate,
+                friction: 0.0,
+            },
+            thickness: 3,
+        }),
+        colliders: vec![],
+    };
+    let mut solver = ExplicitSolver::new(spec, params, materials, boundaries, particles)
+        .expect("benchmark scene is valid");
+    let dt = DT_FRACTION * solver.stable_dt();
+    assert!(dt.is_finite() && dt > 0.0, "stable dt {dt}");
+    solver.params.time_step = TimeStepPolicy::Fixed { dt };
+    solver
+}
+
+/// The 2D scene: in the unit box with `n` = [`Size::cells`]`(2)` cells per axis, a water block of
+/// `n/2 × n/4` cells at the bottom left (`[1/64, 33/64] × [1/64, 17/64]` m) and a Neo-Hookean
+/// jelly block of `n/2 × n/4` cells above it (`[7/16, 15/16] × [1/2, 3/4]` m), both at rest.
+/// Exactly [`Size::particles`]`(2)` particles (water first, then jelly).
+pub fn scene_2d(size: Size) -> ExplicitSolver<2> {
+    let n = size.cells(2);
+    let solver = build::<2>(n, vec![jelly(), water()], |ps, spec| {
+        let water_lo = [n / 64, n / 64];
+        fill_cells(
+            ps,
+            spec,
+            water_lo,
+            [water_lo[0] + n / 2, water_lo[1] + n / 4],
+            1,
+            1000.0,
+        );
+        let jelly_lo = [7 * n / 16, n / 2];
+        fill_cells(
+            ps,
+            spec,
+            jelly_lo,
+            [jelly_lo[0] + n / 2, jelly_lo[1] + n / 4],
+            0,
+            1000.0,
+        );
+    });
+    assert_eq!(solver.particles.len(), size.particles(2));
+    solver
+}
+
+/// The 3D scene: in the unit box with `n` = [`Size::cells`]`(3)` cells per axis, a Neo-Hookean
+/// jelly cube of `(n/2)³` cells (`[1/4, 3/4] × [3/8, 7/8] × [1/4, 3/4]` m) at rest.
+/// Exactly [`Size::particles`]`(3)` particles.
+pub fn scene_3d(size: Size) -> ExplicitSolver<3> {
+    let n = size.cells(3);
+    let solver = build::<3>(n, vec![jelly()], |ps, spec| {
+        let lo = [n / 4, 3 * n / 8, n / 4];
+        fill_cells(
+            ps,
+            spec,
+            lo,
+            [lo[0] + n / 2, lo[1] + n / 2, lo[2] + n / 2],
+            0,
+            1000.0,
+        );
+    });
+    assert_eq!(solver.particles.len(), size.particles(3));
+    solver
+}
+
+/// Memory used by a solver, split into particle storage and solver scratch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Memory {
+    /// Number of particles.
+    pub particles: usize,
+    /// Particle storage per particle for the columns that exist
+    /// ([`Particles::bytes_per_particle`]).
+    pub particle_bytes: usize,
+    /// Solver scratch that grows with the particle count, per particle (see [`memory`]).
+    pub scratch_bytes: usize,
+    /// Solver scratch that grows with the grid or the occupied blocks, in total (see [`memory`]).
+    pub grid_bytes: usize,
+}
+
+impl Memory {
+    /// Everything divided by the particle count (bytes per particle).
+    pub fn total_per_particle(&self) -> f64 {
+        (self.particle_bytes + self.scratch_bytes) as f64
+            + self.grid_bytes as f64 / self.particles.max(1) as f64
+    }
+}
+
+/// Grid block edge in cells used by the solver's binning (`Blocks::block_cells` in
+/// `mpm-explicit/src/blocks.rs`): 16 in 2D, 8 in 3D.
+fn block_cells(dim: usize) -> usize {
+    if dim == 2 {
+        16
+    } else {
+        8
+    }
+}
+
+/// A field-for-field copy of `g2p::Update<D>` (private to `mpm-explicit`, in
+/// `mpm-explicit/src/g2p.rs`), used only for its size. Keep in sync with the original.
+#[allow(dead_code)]
+struct UpdateMirror<const D: usize> {
+    x: Vector<D>,
+    v: Vector<D>,
+    c: Matrix<D>,
+    f: Matrix<D>,
+    j: Real,
+    plastic: PlasticState,
+    fault: Option<(Violation, Real)>,
+}
+
+/// Bytes of one `g2p::Update<D>`, the per-particle G2P result buffer entry: position and
+/// velocity, affine field and deformation gradient, `J`, the plastic state and the guard-check
+/// fault (160 B in 2D, 256 B in 3D with `f64`).
+pub fn g2p_update_bytes<const D: usize>() -> usize {
+    std::mem::size_of::<UpdateMirror<D>>()
+}
+
+/// Particle storage and an estimate of the solver scratch of `solver`.
+///
+/// The scratch is derived from the workspace of `ExplicitSolver` (`mpm-explicit/src/solver.rs`,
+/// `Workspace`) with the default APIC transfer (no FLIP buffers), counting allocated lengths,
+/// not capacities:
+///
+/// - per particle ([`Memory::scratch_bytes`]): the block id and the sorted order of every
+///   particle (`Blocks::block_of`, `Blocks::order`: one `usize` each) and the G2P result buffer
+///   (`Vec<Update<D>>`, [`g2p_update_bytes`]: 160 B in 2D, 256 B in 3D);
+/// - per grid ([`Memory::grid_bytes`]): the dense node arrays (`GridNodes`: mass, momentum and
+///   velocity, `(1 + 2D)·8` B per node), the per-block counts (`usize` per block) and one private
+///   scatter buffer per occupied block (`BlockBuffer`: mass and momentum on `(B + s − 1)^D`
+///   nodes, `B` the block edge in cells, `s` the kernel support). The occupied blocks are
+///   counted with the solver's binning rule at the current particle positions.
+pub fn memory<const D: usize>(solver: &ExplicitSolver<D>) -> Memory {
+    let r = std::mem::size_of::<Real>();
+    let u = std::mem::size_of::<usize>();
+    let spec = &solver.spec;
+    let kernel = solver.params.kernel;
+    let b = block_cells(D);
+    let dims: [usize; D] = std::array::from_fn(|a| spec.size[a].div_ceil(b));
+    let nblocks: usize = dims.iter().product();
+    let mut occupied = vec![false; nblocks];
+    for x in &solver.particles.x {
+        let mut id = 0;
+        let mut stride = 1;
+        for a in 0..D {
+            let xh = (x[a] - spec.origin[a]) / spec.dx;
+            let base = kernel.base_node(xh).max(0) as usize;
+            id += (base / b).min(dims[a] - 1) * stride;
+            stride *= dims[a];
+        }
+        occupied[id] = true;
+    }
+    let occupied = occupied.iter().filter(|&&o| o).count();
+    let width = b + kernel.support() - 1;
+    let block_buffers = occupied * width.pow(D as u32) * (1 + D) * r;
+    let grid_nodes = spec.num_nodes() * (1 + 2 * D) * r;
+    Memory {
+        particles: solver.particles.len(),
+        particle_bytes: solver.particles.bytes_per_particle(),
+        scratch_bytes: 2 * u + g2p_update_bytes::<D>(),
+        grid_bytes: grid_nodes + (nblocks + 1) * u + block_buffers,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn particle_counts_are_exact() {
+        assert_eq!(Size::K64.particles(2), 65_536);
+        assert_eq!(Size::K256.particles(2), 262_144);
+        assert_eq!(Size::K64.particles(3), 64_000);
+        assert_eq!(Size::K256.particles(3), 262_144);
+    }
+
+    #[test]
+    fn update_size_matches_the_documented_layout() {
+        assert_eq!(g2p_update_bytes::<2>(), 160);
+        assert_eq!(g2p_update_bytes::<3>(), 256);
+    }
+}
