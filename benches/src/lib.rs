@@ -20,10 +20,10 @@
 //! resolutions of a scene are the same physical set-up.
 
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
-use mpm_core::material::{ElasticModel, FluidMaterial, Lame, PlasticState, SolidMaterial, Tait};
+use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
 use mpm_core::{
     Columns, Dim, DimOps, GridSpec, Material, Matrix, ParticleInit, Particles, Real,
-    TimeStepPolicy, Vector, Violation,
+    TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 
@@ -245,79 +245,19 @@ impl Memory {
     }
 }
 
-/// Grid block edge in cells used by the solver's binning (`Blocks::block_cells` in
-/// `mpm-explicit/src/blocks.rs`): 16 in 2D, 8 in 3D.
-fn block_cells(dim: usize) -> usize {
-    if dim == 2 {
-        16
-    } else {
-        8
-    }
-}
-
-/// A field-for-field copy of `g2p::Update<D>` (private to `mpm-explicit`, in
-/// `mpm-explicit/src/g2p.rs`), used only for its size. Keep in sync with the original.
-#[allow(dead_code)]
-struct UpdateMirror<const D: usize> {
-    x: Vector<D>,
-    v: Vector<D>,
-    c: Matrix<D>,
-    f: Matrix<D>,
-    j: Real,
-    plastic: PlasticState,
-    fault: Option<(Violation, Real)>,
-}
-
-/// Bytes of one `g2p::Update<D>`, the per-particle G2P result buffer entry: position and
-/// velocity, affine field and deformation gradient, `J`, the plastic state and the guard-check
-/// fault (160 B in 2D, 256 B in 3D with `f64`).
-pub fn g2p_update_bytes<const D: usize>() -> usize {
-    std::mem::size_of::<UpdateMirror<D>>()
-}
-
-/// Particle storage and an estimate of the solver scratch of `solver`.
-///
-/// The scratch is derived from the workspace of `ExplicitSolver` (`mpm-explicit/src/solver.rs`,
-/// `Workspace`) with the default APIC transfer (no FLIP buffers), counting allocated lengths,
-/// not capacities:
-///
-/// - per particle ([`Memory::scratch_bytes`]): the block id and the sorted order of every
-///   particle (`Blocks::block_of`, `Blocks::order`: one `usize` each) and the G2P result buffer
-///   (`Vec<Update<D>>`, [`g2p_update_bytes`]: 160 B in 2D, 256 B in 3D);
-/// - per grid ([`Memory::grid_bytes`]): the dense node arrays (`GridNodes`: mass, momentum and
-///   velocity, `(1 + 2D)·8` B per node), the per-block counts (`usize` per block) and one private
-///   scatter buffer per occupied block (`BlockBuffer`: mass and momentum on `(B + s − 1)^D`
-///   nodes, `B` the block edge in cells, `s` the kernel support). The occupied blocks are
-///   counted with the solver's binning rule at the current particle positions.
-pub fn memory<const D: usize>(solver: &ExplicitSolver<D>) -> Memory {
-    let r = std::mem::size_of::<Real>();
-    let u = std::mem::size_of::<usize>();
-    let spec = &solver.spec;
-    let kernel = solver.params.kernel;
-    let b = block_cells(D);
-    let dims: [usize; D] = std::array::from_fn(|a| spec.size[a].div_ceil(b));
-    let nblocks: usize = dims.iter().product();
-    let mut occupied = vec![false; nblocks];
-    for x in &solver.particles.x {
-        let mut id = 0;
-        let mut stride = 1;
-        for a in 0..D {
-            let xh = (x[a] - spec.origin[a]) / spec.dx;
-            let base = kernel.base_node(xh).max(0) as usize;
-            id += (base / b).min(dims[a] - 1) * stride;
-            stride *= dims[a];
-        }
-        occupied[id] = true;
-    }
-    let occupied = occupied.iter().filter(|&&o| o).count();
-    let width = b + kernel.support() - 1;
-    let block_buffers = occupied * width.pow(D as u32) * (1 + D) * r;
-    let grid_nodes = spec.num_nodes() * (1 + 2 * D) * r;
+/// Particle storage and the solver's scratch memory, as `ExplicitSolver::scratch_bytes` counts
+/// it (lengths of the workspace arrays after the last step; run at least one step first).
+pub fn memory<const D: usize>(solver: &ExplicitSolver<D>) -> Memory
+where
+    Dim<D>: DimOps<D>,
+{
+    let n = solver.particles.len();
+    let scratch = solver.scratch_bytes();
     Memory {
-        particles: solver.particles.len(),
+        particles: n,
         particle_bytes: solver.particles.bytes_per_particle(),
-        scratch_bytes: 2 * u + g2p_update_bytes::<D>(),
-        grid_bytes: grid_nodes + (nblocks + 1) * u + block_buffers,
+        scratch_bytes: scratch.particles / n.max(1),
+        grid_bytes: scratch.grid,
     }
 }
 
@@ -331,11 +271,5 @@ mod tests {
         assert_eq!(Size::K256.particles(2), 262_144);
         assert_eq!(Size::K64.particles(3), 64_000);
         assert_eq!(Size::K256.particles(3), 262_144);
-    }
-
-    #[test]
-    fn update_size_matches_the_documented_layout() {
-        assert_eq!(g2p_update_bytes::<2>(), 160);
-        assert_eq!(g2p_update_bytes::<3>(), 256);
     }
 }

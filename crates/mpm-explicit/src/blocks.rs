@@ -141,6 +141,22 @@ impl<const D: usize> Blocks<D> {
         }
     }
 
+    /// Bytes held by the binning and the block buffers (lengths, not capacities):
+    /// `(per-particle arrays, per-grid arrays)`.
+    pub fn bytes(&self) -> (usize, usize) {
+        let u = std::mem::size_of::<usize>();
+        let per_particle = (self.block_of.len() + self.order.len()) * u;
+        let buffers: usize = self.buffers[..self.ranges.len()]
+            .iter()
+            .map(|b| {
+                b.mass.len() * std::mem::size_of::<Real>()
+                    + (b.momentum.len() + b.momentum0.len()) * std::mem::size_of::<Vector<D>>()
+            })
+            .sum();
+        let grid = self.counts.len() * u + self.ranges.len() * 3 * u + buffers;
+        (per_particle, grid)
+    }
+
     /// Scatters every particle with `f(particle, buffer)` into its block's buffer, blocks in
     /// parallel, then adds the buffers to `grid` (and to `momentum0` when given) in block order.
     pub fn scatter<F>(

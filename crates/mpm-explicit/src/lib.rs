@@ -15,4 +15,4 @@ mod solver;
 
 pub use p2g::kirchhoff;
 pub use params::{BodyForce, ExplicitParams, SoftWalls, Transfer, VolumeUpdate};
-pub use solver::{ExplicitSolver, StageTimes, StepInfo};
+pub use solver::{ExplicitSolver, ScratchBytes, StageTimes, StepInfo};

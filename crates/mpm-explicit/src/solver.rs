@@ -49,6 +49,15 @@ impl StageTimes {
     }
 }
 
+/// Scratch memory of a solver's workspace (bytes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScratchBytes {
+    /// Arrays with one entry per particle: block binning and the G2P result buffer.
+    pub particles: usize,
+    /// Arrays that scale with the grid: dense nodes, FLIP velocities, block counts and buffers.
+    pub grid: usize,
+}
+
 /// What one accepted step did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StepInfo {
@@ -123,7 +132,12 @@ where
     /// A failed step leaves the particle state untouched.
     pub fn step(&mut self) -> Result<StepInfo, Instability> {
         let t0 = Instant::now();
-        let dt0 = choose_dt(&self.params.time_step, self.stable_dt())
+        let stable = match self.params.time_step {
+            // A fixed step does not use the bound; the guard checks still catch bad states.
+            TimeStepPolicy::Fixed { .. } => Real::INFINITY,
+            TimeStepPolicy::Adaptive { .. } => self.stable_dt(),
+        };
+        let dt0 = choose_dt(&self.params.time_step, stable)
             .map_err(|e| self.instability(Stage::TimeStep, 0.0, e, 0))?;
         self.stats.time_step += t0.elapsed();
         let max_retries = match self.params.on_instability {
@@ -296,6 +310,20 @@ where
                 s.wave_speed(Dim::<D>::det(&ps.def_grad_of(p)), &ps.plastic_of(p))
             }
             Material::Fluid(f) => f.sound_speed(ps.jacobian_of(p)),
+        }
+    }
+
+    /// Bytes of scratch memory the workspace holds after the last step (lengths, not
+    /// capacities), split into what scales with the particle count and what scales with the grid.
+    pub fn scratch_bytes(&self) -> ScratchBytes {
+        let ws = &self.ws;
+        let (block_particles, block_grid) = ws.blocks.bytes();
+        let vec = std::mem::size_of::<Vector<D>>();
+        ScratchBytes {
+            particles: block_particles + ws.updates.len() * std::mem::size_of::<Update<D>>(),
+            grid: block_grid
+                + ws.grid.mass.len() * std::mem::size_of::<Real>()
+                + (ws.grid.momentum.len() + ws.grid.velocity.len() + ws.velocity_old.len()) * vec,
         }
     }
 
