@@ -1999,32 +1999,21 @@ fn resolve_output(
     if directory.trim().is_empty() {
         c.err("output.directory", "must not be empty");
     }
-    let interval = match (o.and_then(|o| o.interval), o.and_then(|o| o.interval_steps)) {
-        (Some(_), Some(_)) => {
-            c.err(
-                "output.interval_steps",
-                "give either `interval` (s) or `interval_steps`, not both",
-            );
-            Interval::Steps { interval_steps: 1 }
-        }
-        (Some(t), None) => Interval::Time {
-            interval: c.positive("output.interval", t),
+    let default_interval = match *duration {
+        Duration::EndTime { end_time } => Interval::Time {
+            interval: end_time / 50.0,
         },
-        (None, Some(n)) => {
-            if n == 0 {
-                c.err("output.interval_steps", "must be at least 1");
-            }
-            Interval::Steps { interval_steps: n }
-        }
-        (None, None) => match *duration {
-            Duration::EndTime { end_time } => Interval::Time {
-                interval: end_time / 50.0,
-            },
-            Duration::Steps { steps } => Interval::Steps {
-                interval_steps: (steps / 50).max(1),
-            },
+        Duration::Steps { steps } => Interval::Steps {
+            interval_steps: (steps / 50).max(1),
         },
     };
+    let interval = resolve_interval(
+        c,
+        "output",
+        o.and_then(|o| o.interval),
+        o.and_then(|o| o.interval_steps),
+    )
+    .unwrap_or(default_interval);
     let available = field_names(columns);
     let fields = match o.and_then(|o| o.fields.as_ref()) {
         None => available
@@ -2080,32 +2069,44 @@ fn resolve_output(
     }
 }
 
-fn resolve_checkpoint(c: &mut Checker<'_>, ck: &RawCheckpoint) -> CheckpointDef {
-    let interval = match (ck.interval, ck.interval_steps) {
+/// The interval of table `table` (`output` or `checkpoint`) from its `interval` (s) and
+/// `interval_steps` keys; `None` when neither is given. Giving both, or zero steps, is an error.
+fn resolve_interval(
+    c: &mut Checker<'_>,
+    table: &str,
+    interval: Option<f64>,
+    steps: Option<u64>,
+) -> Option<Interval> {
+    match (interval, steps) {
         (Some(_), Some(_)) => {
             c.err(
-                "checkpoint.interval_steps",
+                &format!("{table}.interval_steps"),
                 "give either `interval` (s) or `interval_steps`, not both",
             );
-            Interval::Steps { interval_steps: 1 }
+            Some(Interval::Steps { interval_steps: 1 })
         }
-        (Some(t), None) => Interval::Time {
-            interval: c.positive("checkpoint.interval", t),
-        },
+        (Some(t), None) => Some(Interval::Time {
+            interval: c.positive(&format!("{table}.interval"), t),
+        }),
         (None, Some(n)) => {
             if n == 0 {
-                c.err("checkpoint.interval_steps", "must be at least 1");
+                c.err(&format!("{table}.interval_steps"), "must be at least 1");
             }
-            Interval::Steps { interval_steps: n }
+            Some(Interval::Steps { interval_steps: n })
         }
-        (None, None) => {
+        (None, None) => None,
+    }
+}
+
+fn resolve_checkpoint(c: &mut Checker<'_>, ck: &RawCheckpoint) -> CheckpointDef {
+    let interval = resolve_interval(c, "checkpoint", ck.interval, ck.interval_steps)
+        .unwrap_or_else(|| {
             c.err(
                 "checkpoint.interval",
                 "missing key: give `interval` (s) or `interval_steps`",
             );
             Interval::Steps { interval_steps: 1 }
-        }
-    };
+        });
     let keep = ck.keep.unwrap_or(2);
     if keep == 0 {
         c.err("checkpoint.keep", "must be at least 1");
