@@ -144,25 +144,23 @@ where
             OnInstability::Abort => 0,
             OnInstability::Retry { max_retries } => max_retries,
         };
-        let mut dt = dt0;
-        for retries in 0..=max_retries {
+        let (mut dt, mut retries) = (dt0, 0);
+        loop {
             match self.advance(dt) {
-                Ok(()) => {
-                    self.time += dt;
-                    self.steps += 1;
-                    return Ok(StepInfo {
-                        dt,
-                        retries,
-                        time: self.time,
-                    });
-                }
+                Ok(()) => break,
                 Err((stage, e)) if retries == max_retries => {
                     return Err(self.instability(stage, dt, e, retries));
                 }
-                Err(_) => dt *= 0.5,
+                Err(_) => (dt, retries) = (0.5 * dt, retries + 1),
             }
         }
-        unreachable!("the retry loop returns on its last iteration")
+        self.time += dt;
+        self.steps += 1;
+        Ok(StepInfo {
+            dt,
+            retries,
+            time: self.time,
+        })
     }
 
     /// One attempt at a step of size `dt`: the stage plan.
