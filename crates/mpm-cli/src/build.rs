@@ -131,6 +131,7 @@ pub fn params<const D: usize>(scene: &LoadedScene) -> ExplicitParams<D> {
             lookahead: w.lookahead,
         }),
         body_force: None,
+        ..ExplicitParams::default()
     }
 }
 

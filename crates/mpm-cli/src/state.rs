@@ -79,7 +79,8 @@ where
 }
 
 /// The snapshot fields named in `names` (as resolved by the scene: `x`, `v`, `mass`,
-/// `volume0`, `material`, `affine`, `F`, `J`, `plastic`, `pressure`), in that order.
+/// `volume0`, `material`, `affine`, `F`, `J`, `plastic`, `phase`, `phi_eff`, `concentration`,
+/// `pressure`), in that order.
 pub fn snapshot_fields<const D: usize>(
     particles: &Particles<D>,
     materials: &[Material],
@@ -119,6 +120,28 @@ where
                     out.extend(plastic_fields(s));
                 }
             }
+            "phase" => {
+                if let Some(k) = &particles.phase {
+                    out.push(Field {
+                        name: "phase".into(),
+                        unit: "1".into(),
+                        data: Data::U32 {
+                            values: k.clone(),
+                            shape: vec![k.len()],
+                        },
+                    });
+                }
+            }
+            "phi_eff" => {
+                if let Some(f) = &particles.volume_fraction {
+                    out.push(scalars("phi_eff", "1", f));
+                }
+            }
+            "concentration" => {
+                if let Some(c) = &particles.concentration {
+                    out.push(scalars("concentration", "1", c));
+                }
+            }
             "pressure" => out.push(scalars("pressure", "Pa", &pressure(particles, materials))),
             _ => {}
         }
@@ -135,7 +158,7 @@ where
         .iter()
         .map(|s| s.to_string())
         .collect();
-    names.push("plastic".into());
+    names.extend(["plastic", "phase", "phi_eff", "concentration"].map(String::from));
     snapshot_fields(particles, &[], &names)
 }
 
@@ -223,6 +246,26 @@ pub fn restore<const D: usize>(
     check("F", cols.deformation_gradient)?;
     check("J", cols.jacobian)?;
     check("plastic_jp", cols.plastic)?;
+    check("phase", cols.phase)?;
+    check("phi_eff", cols.volume_fraction)?;
+    check("concentration", cols.concentration)?;
+    let phase = if cols.phase {
+        match ckpt.field("phase").map(|f| &f.data) {
+            Some(Data::U32 { values, shape }) if shape.as_slice() == [n] => Some(values.clone()),
+            _ => {
+                return Err(format!(
+                    "checkpoint has no `phase` field of shape [{n}] (u32)"
+                ))
+            }
+        }
+    } else {
+        None
+    };
+    let volume_fraction = cols.volume_fraction.then(|| scal("phi_eff")).transpose()?;
+    let concentration = cols
+        .concentration
+        .then(|| scal("concentration"))
+        .transpose()?;
     let def_grad = if cols.deformation_gradient {
         Some(mats("F")?)
     } else {
@@ -257,6 +300,9 @@ pub fn restore<const D: usize>(
         def_grad,
         jacobian,
         plastic,
+        phase,
+        volume_fraction,
+        concentration,
     };
     Ok(())
 }

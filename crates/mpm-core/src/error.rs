@@ -149,4 +149,13 @@ pub enum SetupError {
         /// Column name.
         column: &'static str,
     },
+    /// A multi-grid setting (phases, couplings, porous interaction, mixing, dissolution) is
+    /// inconsistent with the materials or particles.
+    #[error("invalid {setting}: {reason}")]
+    InvalidSetting {
+        /// The setting, e.g. `coupling 0` or `mixing`.
+        setting: String,
+        /// Why it is rejected.
+        reason: String,
+    },
 }

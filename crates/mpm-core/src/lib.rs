@@ -19,7 +19,7 @@ pub use grid::{GridNodes, GridSpec};
 pub use kernel::{Kernel, Stencil};
 pub use material::Material;
 pub use math::{Angular, Dim, DimOps, Matrix, Real, Vector};
-pub use particles::{Columns, ParticleInit, Particles};
+pub use particles::{Columns, ParticleExtra, ParticleInit, Particles};
 pub mod diagnostics;
 pub mod timestep;
 pub mod volume;

@@ -4,7 +4,8 @@
 //! velocity matrix `C` (the APIC/MLS velocity gradient, also used by viscous fluids). The other
 //! columns exist only when some material in the scene needs them (DESIGN §3 and §5):
 //! the deformation gradient for solids, `J = det F` for fluids, the plastic state for plastic
-//! solids.
+//! solids; and, for multi-grid scenes (multigrid paper §4), the phase index, the effective volume
+//! fraction φ_eff and the concentration.
 
 use crate::material::{Material, PlasticState};
 use crate::math::{Matrix, Real, Vector};
@@ -19,6 +20,15 @@ pub struct Columns {
     pub jacobian: bool,
     /// Plastic state (snow, sand).
     pub plastic: bool,
+    /// Phase index: which background grid a particle belongs to (multi-grid scenes only).
+    #[serde(default)]
+    pub phase: bool,
+    /// Effective volume fraction φ_eff (porous interaction, multigrid paper Eqs. 21, 22, 36).
+    #[serde(default)]
+    pub volume_fraction: bool,
+    /// Concentration α (miscible mixing, Eqs. 33–35) or dissolution progress (§4.5).
+    #[serde(default)]
+    pub concentration: bool,
 }
 
 impl Columns {
@@ -28,6 +38,7 @@ impl Columns {
             deformation_gradient: materials.iter().any(Material::needs_deformation_gradient),
             jacobian: materials.iter().any(|m| matches!(m, Material::Fluid(_))),
             plastic: materials.iter().any(Material::needs_plastic_state),
+            ..Self::default()
         }
     }
 
@@ -42,6 +53,15 @@ impl Columns {
         }
         if self.plastic {
             n.push("plastic");
+        }
+        if self.phase {
+            n.push("phase");
+        }
+        if self.volume_fraction {
+            n.push("phi_eff");
+        }
+        if self.concentration {
+            n.push("concentration");
         }
         n
     }
@@ -62,6 +82,18 @@ pub struct ParticleInit<const D: usize> {
     pub material: u32,
     /// Initial affine velocity field C (1/s), e.g. the gradient of an initial rotation.
     pub affine: Matrix<D>,
+}
+
+/// The optional multi-grid state of one particle, as handed to [`Particles::push_with`]. Values
+/// for columns that do not exist are ignored.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ParticleExtra {
+    /// Phase (grid) index.
+    pub phase: u32,
+    /// Initial effective volume fraction φ_eff ∈ [0, 1] (dimensionless).
+    pub volume_fraction: Real,
+    /// Initial concentration α ∈ [0, 1] (dimensionless).
+    pub concentration: Real,
 }
 
 /// Particle storage, one `Vec` per field.
@@ -85,6 +117,12 @@ pub struct Particles<const D: usize> {
     pub jacobian: Option<Vec<Real>>,
     /// Plastic states, if any material is plastic.
     pub plastic: Option<Vec<PlasticState>>,
+    /// Phase indices, if the scene has more than one phase.
+    pub phase: Option<Vec<u32>>,
+    /// Effective volume fractions φ_eff (dimensionless), if porous interaction is on.
+    pub volume_fraction: Option<Vec<Real>>,
+    /// Concentrations α (dimensionless), if mixing or dissolution is on.
+    pub concentration: Option<Vec<Real>>,
 }
 
 impl<const D: usize> Particles<D> {
@@ -94,6 +132,9 @@ impl<const D: usize> Particles<D> {
             def_grad: columns.deformation_gradient.then(Vec::new),
             jacobian: columns.jacobian.then(Vec::new),
             plastic: columns.plastic.then(Vec::new),
+            phase: columns.phase.then(Vec::new),
+            volume_fraction: columns.volume_fraction.then(Vec::new),
+            concentration: columns.concentration.then(Vec::new),
             ..Self::default()
         }
     }
@@ -104,6 +145,9 @@ impl<const D: usize> Particles<D> {
             deformation_gradient: self.def_grad.is_some(),
             jacobian: self.jacobian.is_some(),
             plastic: self.plastic.is_some(),
+            phase: self.phase.is_some(),
+            volume_fraction: self.volume_fraction.is_some(),
+            concentration: self.concentration.is_some(),
         }
     }
 
@@ -117,8 +161,14 @@ impl<const D: usize> Particles<D> {
         self.x.is_empty()
     }
 
-    /// Appends a particle in its undeformed, virgin state (F = I, J = 1, default plastic state).
+    /// Appends a particle in its undeformed, virgin state (F = I, J = 1, default plastic state),
+    /// in phase 0 with zero φ_eff and concentration.
     pub fn push(&mut self, p: ParticleInit<D>) {
+        self.push_with(p, ParticleExtra::default());
+    }
+
+    /// Appends a particle in its undeformed, virgin state with the given multi-grid state.
+    pub fn push_with(&mut self, p: ParticleInit<D>, extra: ParticleExtra) {
         self.x.push(p.x);
         self.v.push(p.v);
         self.mass.push(p.mass);
@@ -134,6 +184,33 @@ impl<const D: usize> Particles<D> {
         if let Some(s) = &mut self.plastic {
             s.push(PlasticState::default());
         }
+        if let Some(k) = &mut self.phase {
+            k.push(extra.phase);
+        }
+        if let Some(f) = &mut self.volume_fraction {
+            f.push(extra.volume_fraction);
+        }
+        if let Some(c) = &mut self.concentration {
+            c.push(extra.concentration);
+        }
+    }
+
+    /// Phase of particle `p` (0 when the column does not exist).
+    #[inline]
+    pub fn phase_of(&self, p: usize) -> u32 {
+        self.phase.as_ref().map_or(0, |k| k[p])
+    }
+
+    /// Effective volume fraction of particle `p` (0 when the column does not exist).
+    #[inline]
+    pub fn volume_fraction_of(&self, p: usize) -> Real {
+        self.volume_fraction.as_ref().map_or(0.0, |f| f[p])
+    }
+
+    /// Concentration of particle `p` (0 when the column does not exist).
+    #[inline]
+    pub fn concentration_of(&self, p: usize) -> Real {
+        self.concentration.as_ref().map_or(0.0, |c| c[p])
     }
 
     /// Deformation gradient of particle `p` (identity when the column does not exist).
@@ -172,6 +249,10 @@ impl<const D: usize> Particles<D> {
         if c.plastic {
             b += std::mem::size_of::<PlasticState>();
         }
+        if c.phase {
+            b += std::mem::size_of::<u32>();
+        }
+        b += r * (usize::from(c.volume_fraction) + usize::from(c.concentration));
         b
     }
 }

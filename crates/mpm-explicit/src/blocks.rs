@@ -7,8 +7,22 @@
 //! fixed by the particle positions alone, so results are bitwise identical for any thread count.
 //! No atomics on floats are involved.
 
-use mpm_core::{GridNodes, GridSpec, Kernel, Real, Vector};
+use mpm_core::{GridSpec, Kernel, Real, Vector};
 use rayon::prelude::*;
+
+/// Where a scatter adds its block buffers: one scalar and one vector channel, and optionally a
+/// second of each. Channel `mass` must be a sum of non-negative weights: nodes where it is zero
+/// received nothing and are skipped. Every given array is zeroed and sized to the grid first.
+pub(crate) struct Sums<'a, const D: usize> {
+    /// Scalar channel (node mass for P2G).
+    pub mass: &'a mut Vec<Real>,
+    /// Vector channel (node momentum for P2G).
+    pub momentum: &'a mut Vec<Vector<D>>,
+    /// Optional second vector channel (FLIP's plain momentum for P2G).
+    pub momentum0: Option<&'a mut Vec<Vector<D>>>,
+    /// Optional second scalar channel.
+    pub extra: Option<&'a mut Vec<Real>>,
+}
 
 /// A block's private node storage.
 #[derive(Clone, Debug)]
@@ -19,6 +33,8 @@ pub(crate) struct BlockBuffer<const D: usize> {
     pub momentum: Vec<Vector<D>>,
     /// Momentum without stress or affine terms (FLIP's old grid velocity), when requested.
     pub momentum0: Vec<Vector<D>>,
+    /// The optional second scalar channel, when requested.
+    pub extra: Vec<Real>,
 }
 
 impl<const D: usize> Default for BlockBuffer<D> {
@@ -29,12 +45,13 @@ impl<const D: usize> Default for BlockBuffer<D> {
             mass: Vec::new(),
             momentum: Vec::new(),
             momentum0: Vec::new(),
+            extra: Vec::new(),
         }
     }
 }
 
 impl<const D: usize> BlockBuffer<D> {
-    fn reset(&mut self, origin: [i64; D], width: usize, with_momentum0: bool) {
+    fn reset(&mut self, origin: [i64; D], width: usize, with_momentum0: bool, with_extra: bool) {
         let n = width.pow(D as u32);
         self.origin = origin;
         self.width = width;
@@ -45,6 +62,10 @@ impl<const D: usize> BlockBuffer<D> {
         self.momentum0.clear();
         if with_momentum0 {
             self.momentum0.resize(n, Vector::<D>::zeros());
+        }
+        self.extra.clear();
+        if with_extra {
+            self.extra.resize(n, 0.0);
         }
     }
 
@@ -100,8 +121,15 @@ impl<const D: usize> Blocks<D> {
         }
     }
 
-    /// Bins particles at `x` by block. Positions must have their stencil inside the grid.
-    pub fn sort(&mut self, spec: &GridSpec<D>, kernel: Kernel, x: &[Vector<D>]) {
+    /// Bins particles at `x` by block; with `only = Some((phase, k))`, only the particles with
+    /// `phase[p] == k`. Positions must have their stencil inside the grid.
+    pub fn sort(
+        &mut self,
+        spec: &GridSpec<D>,
+        kernel: Kernel,
+        x: &[Vector<D>],
+        only: Option<(&[u32], u32)>,
+    ) {
         let b = Self::block_cells();
         self.block_cells = b;
         self.dims = std::array::from_fn(|a| spec.size[a].div_ceil(b));
@@ -109,7 +137,11 @@ impl<const D: usize> Blocks<D> {
         let inv_dx = 1.0 / spec.dx;
         let dims = self.dims;
         x.par_iter()
-            .map(|xp| {
+            .enumerate()
+            .map(|(p, xp)| {
+                if only.is_some_and(|(phase, k)| phase[p] != k) {
+                    return usize::MAX;
+                }
                 let mut id = 0;
                 let mut stride = 1;
                 for a in 0..D {
@@ -122,7 +154,7 @@ impl<const D: usize> Blocks<D> {
             .collect_into_vec(&mut self.block_of);
         self.counts.clear();
         self.counts.resize(nblocks + 1, 0);
-        for &id in &self.block_of {
+        for &id in self.block_of.iter().filter(|&&id| id != usize::MAX) {
             self.counts[id + 1] += 1;
         }
         self.ranges.clear();
@@ -134,8 +166,11 @@ impl<const D: usize> Blocks<D> {
             self.counts[id + 1] = start + n;
         }
         self.order.clear();
-        self.order.resize(x.len(), 0);
+        self.order.resize(self.counts[nblocks], 0);
         for (p, &id) in self.block_of.iter().enumerate() {
+            if id == usize::MAX {
+                continue;
+            }
             self.order[self.counts[id]] = p;
             self.counts[id] += 1;
         }
@@ -149,7 +184,7 @@ impl<const D: usize> Blocks<D> {
         let buffers: usize = self.buffers[..self.ranges.len()]
             .iter()
             .map(|b| {
-                b.mass.len() * std::mem::size_of::<Real>()
+                (b.mass.len() + b.extra.len()) * std::mem::size_of::<Real>()
                     + (b.momentum.len() + b.momentum0.len()) * std::mem::size_of::<Vector<D>>()
             })
             .sum();
@@ -157,20 +192,20 @@ impl<const D: usize> Blocks<D> {
         (per_particle, grid)
     }
 
-    /// Scatters every particle with `f(particle, buffer)` into its block's buffer, blocks in
-    /// parallel, then adds the buffers to `grid` (and to `momentum0` when given) in block order.
-    pub fn scatter<F>(
-        &mut self,
-        spec: &GridSpec<D>,
-        kernel: Kernel,
-        grid: &mut GridNodes<D>,
-        mut momentum0: Option<&mut Vec<Vector<D>>>,
-        f: F,
-    ) where
+    /// Scatters every binned particle with `f(particle, buffer)` into its block's buffer, blocks
+    /// in parallel, then adds the buffers to `out` in block order.
+    pub fn scatter<F>(&mut self, spec: &GridSpec<D>, kernel: Kernel, out: Sums<'_, D>, f: F)
+    where
         F: Fn(usize, &mut BlockBuffer<D>) + Sync,
     {
+        let Sums {
+            mass,
+            momentum,
+            mut momentum0,
+            mut extra,
+        } = out;
         let width = self.block_cells + kernel.support() - 1;
-        let with0 = momentum0.is_some();
+        let (with0, with_extra) = (momentum0.is_some(), extra.is_some());
         if self.buffers.len() < self.ranges.len() {
             self.buffers
                 .resize_with(self.ranges.len(), Default::default);
@@ -181,15 +216,23 @@ impl<const D: usize> Blocks<D> {
             .zip(self.buffers.par_iter_mut())
             .for_each(|(&(id, start, end), buf)| {
                 let origin = block_origin(id, &dims, b);
-                buf.reset(origin, width, with0);
+                buf.reset(origin, width, with0, with_extra);
                 for &p in &order[start..end] {
                     f(p, buf);
                 }
             });
-        grid.reset(spec);
+        let n = spec.num_nodes();
+        mass.clear();
+        mass.resize(n, 0.0);
+        momentum.clear();
+        momentum.resize(n, Vector::<D>::zeros());
         if let Some(m0) = momentum0.as_deref_mut() {
             m0.clear();
-            m0.resize(spec.num_nodes(), Vector::<D>::zeros());
+            m0.resize(n, Vector::<D>::zeros());
+        }
+        if let Some(e) = extra.as_deref_mut() {
+            e.clear();
+            e.resize(n, 0.0);
         }
         for buf in &self.buffers[..self.ranges.len()] {
             for k in 0..buf.mass.len() {
@@ -205,10 +248,13 @@ impl<const D: usize> Blocks<D> {
                 let Some(i) = spec.linear_index(&node) else {
                     continue;
                 };
-                grid.mass[i] += buf.mass[k];
-                grid.momentum[i] += buf.momentum[k];
+                mass[i] += buf.mass[k];
+                momentum[i] += buf.momentum[k];
                 if let Some(m0) = momentum0.as_deref_mut() {
                     m0[i] += buf.momentum0[k];
+                }
+                if let Some(e) = extra.as_deref_mut() {
+                    e[i] += buf.extra[k];
                 }
             }
         }

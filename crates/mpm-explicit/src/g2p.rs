@@ -5,6 +5,8 @@
 //! checks, so a failed step leaves the particles exactly as they were (a dt/2 retry needs no
 //! backup copy).
 
+use crate::materials::MaterialView;
+use crate::multigrid::{Dissolution, Mixing, Porous};
 use crate::p2g::mls_gradient;
 use crate::params::{SoftWalls, Transfer};
 use mpm_core::material::PlasticState;
@@ -45,8 +47,27 @@ pub(crate) struct G2pContext<'a, const D: usize> {
     pub spec: &'a GridSpec<D>,
     pub kernel: Kernel,
     pub transfer: Transfer,
-    pub materials: &'a [Material],
+    pub materials: MaterialView<'a>,
     pub soft_walls: Option<SoftWalls>,
+}
+
+/// The multi-grid state of one particle after the step, before commit.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Extra {
+    phi_eff: Real,
+    concentration: Real,
+    dissolve: bool,
+}
+
+/// What the multi-grid particle update needs: porous interaction, dissolution, and the
+/// concentrations of the diffusion stage.
+pub(crate) struct ExtraContext<'a> {
+    pub porous: Option<&'a Porous>,
+    pub dissolution: Option<&'a Dissolution>,
+    /// Node concentration of the mixing phase (empty without mixing).
+    pub node_concentration: &'a [Real],
+    /// Particle concentrations after diffusion, if the diffusion stage ran.
+    pub alpha: Option<&'a [Real]>,
 }
 
 impl<const D: usize> G2pContext<'_, D>
@@ -55,19 +76,21 @@ where
 {
     /// Gathers from the grid into `updates` and runs the guard checks. Returns the first
     /// (lowest-index) failing particle.
+    /// `grids` and, with FLIP, `velocity_old` have one entry per phase.
     pub fn gather(
         &self,
         particles: &Particles<D>,
-        grid: &GridNodes<D>,
-        velocity_old: Option<&[Vector<D>]>,
+        grids: &[GridNodes<D>],
+        velocity_old: Option<&[Vec<Vector<D>>]>,
         updates: &mut Vec<Update<D>>,
         dt: Real,
     ) -> Result<(), (Location, Violation, Real)> {
         updates.resize(particles.len(), Update::default());
-        updates
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(p, u)| *u = self.particle(particles, grid, velocity_old, p, dt));
+        updates.par_iter_mut().enumerate().for_each(|(p, u)| {
+            let k = particles.phase_of(p) as usize;
+            let v0 = velocity_old.map(|v| v[k].as_slice());
+            *u = self.particle(particles, &grids[k], v0, p, dt)
+        });
         match updates.par_iter().position_first(|u| u.fault.is_some()) {
             Some(p) => {
                 let (violation, value) = updates[p].fault.unwrap_or((Violation::LeftDomain, 0.0));
@@ -118,9 +141,9 @@ where
             c,
             ..Update::default()
         };
-        let material = &self.materials[particles.material[p] as usize];
+        let material = self.materials.get(particles, p);
         let grad_step = Matrix::<D>::identity() + c * dt;
-        match material {
+        match material.as_ref() {
             Material::Solid(s) => {
                 let f_trial = grad_step * particles.def_grad_of(p);
                 u.f = match &particles.plastic {
@@ -139,8 +162,75 @@ where
                 }
             }
         }
-        u.fault = check(spec, self.kernel, material, &u, dt);
+        u.fault = check(spec, self.kernel, &material, &u, dt);
         u
+    }
+
+    /// The multi-grid particle state after the step: volume fraction φ_p (Eqs. 19–20) and the
+    /// effective fraction φ_eff, the diffused concentration, and the dissolution progress.
+    pub fn gather_extra(
+        &self,
+        particles: &Particles<D>,
+        grids: &[GridNodes<D>],
+        ctx: &ExtraContext<'_>,
+        extras: &mut Vec<Extra>,
+        dt: Real,
+    ) {
+        (0..particles.len())
+            .into_par_iter()
+            .map(|p| self.extra(particles, grids, ctx, p, dt))
+            .collect_into_vec(extras);
+    }
+
+    fn extra(
+        &self,
+        particles: &Particles<D>,
+        grids: &[GridNodes<D>],
+        ctx: &ExtraContext<'_>,
+        p: usize,
+        dt: Real,
+    ) -> Extra {
+        let spec = self.spec;
+        let k = particles.phase_of(p) as usize;
+        let dissolving = ctx.dissolution.filter(|d| d.solid == particles.material[p]);
+        let (mut phi, mut wet, mut c_bar) = (0.0, 0.0, 0.0);
+        Stencil::new(self.kernel, spec, &particles.x[p]).for_each(|node, w, _| {
+            let Some(i) = spec.linear_index(&node) else {
+                return;
+            };
+            if ctx.porous.is_some()
+                && grids[k].mass[i] > 0.0
+                && grids
+                    .iter()
+                    .enumerate()
+                    .any(|(j, g)| j != k && g.mass[i] > 0.0)
+            {
+                phi += w;
+            }
+            if let Some(d) = dissolving {
+                if grids[d.fluid_phase as usize].mass[i] > 0.0 {
+                    wet += w;
+                }
+                c_bar += w * ctx.node_concentration.get(i).copied().unwrap_or(0.0);
+            }
+        });
+        let mut e = Extra {
+            phi_eff: particles.volume_fraction_of(p),
+            concentration: ctx
+                .alpha
+                .map_or_else(|| particles.concentration_of(p), |a| a[p]),
+            dissolve: false,
+        };
+        // Σ w = 1 holds to round-off only: keep fractions in [0, 1].
+        if let Some(porous) = ctx.porous {
+            e.phi_eff = porous.update.update(e.phi_eff, phi.min(1.0), dt);
+        }
+        if let Some(d) = dissolving {
+            let fresh = (1.0 - c_bar).clamp(0.0, 1.0);
+            e.concentration = (e.concentration + dt * d.rate * wet.min(1.0) * fresh).min(1.0);
+            e.dissolve = e.concentration >= 1.0;
+        }
+        e
     }
 }
 
@@ -188,6 +278,66 @@ fn check<const D: usize>(
         return Some((Violation::CflExceeded, speed));
     }
     None
+}
+
+/// Writes the accepted multi-grid state: φ_eff, concentration and the mass of mixing particles
+/// (`m = V⁰ ρ₀(α)`), and turns fully dissolved particles into fluid particles (see
+/// [`Dissolution`]).
+pub(crate) fn commit_extra<const D: usize>(
+    particles: &mut Particles<D>,
+    extras: &[Extra],
+    materials: &[Material],
+    mixing: Option<&Mixing>,
+    dissolution: Option<&Dissolution>,
+) {
+    if let Some(f) = &mut particles.volume_fraction {
+        f.par_iter_mut()
+            .zip(extras)
+            .for_each(|(f, e)| *f = e.phi_eff);
+    }
+    if let Some(c) = &mut particles.concentration {
+        c.par_iter_mut()
+            .zip(extras)
+            .for_each(|(c, e)| *c = e.concentration);
+    }
+    if let Some(mix) = mixing {
+        let view = MaterialView::new(materials, None, Some(mix));
+        let masses: Vec<Option<Real>> = (0..particles.len())
+            .into_par_iter()
+            .map(|p| {
+                mix.fluids
+                    .contains(&particles.material[p])
+                    .then(|| particles.volume0[p] * view.rest_density(particles, p))
+            })
+            .collect();
+        for (m, new) in particles.mass.iter_mut().zip(masses) {
+            if let Some(new) = new {
+                *m = new;
+            }
+        }
+    }
+    if let Some(d) = dissolution {
+        let rho = materials[d.into as usize].density();
+        for p in (0..particles.len()).filter(|&p| extras[p].dissolve) {
+            particles.material[p] = d.into;
+            if let Some(k) = &mut particles.phase {
+                k[p] = d.fluid_phase;
+            }
+            if let Some(c) = &mut particles.concentration {
+                c[p] = 1.0;
+            }
+            if let Some(j) = &mut particles.jacobian {
+                j[p] = 1.0;
+            }
+            if let Some(f) = &mut particles.def_grad {
+                f[p] = Matrix::<D>::identity();
+            }
+            if let Some(s) = &mut particles.plastic {
+                s[p] = PlasticState::default();
+            }
+            particles.volume0[p] = particles.mass[p] / rho;
+        }
+    }
 }
 
 /// Writes the accepted updates into the particle columns.

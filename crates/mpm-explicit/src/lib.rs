@@ -5,14 +5,27 @@
 //! A step is a short list of named stages (see [`ExplicitSolver::step`]): sort → (volume
 //! re-estimation) → P2G → grid update → G2P with guard checks → commit. P2G is parallel and
 //! deterministic: results are bitwise identical for any number of rayon threads.
+//!
+//! With several phases (multigrid paper §4, see [`multigrid`]) every phase scatters to its own
+//! grid and a coupling stage (drag, contact, buoyancy penalty) runs between the grid update and
+//! the boundaries; optional stages diffuse concentrations (miscible mixing) and update φ_eff and
+//! dissolution progress. A single-phase scene runs none of them.
 
 mod blocks;
+mod coupling;
 mod g2p;
 mod grid_update;
+mod materials;
+mod mixing;
+pub mod multigrid;
 mod p2g;
 mod params;
 mod solver;
 
+pub use multigrid::{
+    Activation, BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, DiffusionScheme,
+    Dissolution, Drag, EffectiveFraction, Friction, Mixing, Phases, Porous, PressureBuoyancy,
+};
 pub use p2g::kirchhoff;
 pub use params::{BodyForce, ExplicitParams, SoftWalls, Transfer, VolumeUpdate};
 pub use solver::{ExplicitSolver, ScratchBytes, StageTimes, StepInfo};

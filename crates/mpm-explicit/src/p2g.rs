@@ -1,13 +1,14 @@
 //! Particle-to-grid transfer (multigrid paper Eqs. 5–7): mass, momentum and the fused MLS stress
 //! term `Q_p = −Δt V⁰_p τ_p M_p⁻¹ + m_p C_p`.
 
-use crate::blocks::Blocks;
+use crate::blocks::{Blocks, Sums};
+use crate::materials::MaterialView;
 use crate::params::{BodyForce, Transfer};
 use mpm_core::{
     Dim, DimOps, GridNodes, GridSpec, Kernel, Material, Matrix, Particles, Real, Stencil, Vector,
 };
 
-/// Kirchhoff stress τ = J σ (Pa) of particle `p`.
+/// Kirchhoff stress τ = J σ (Pa) of particle `p` with material table entry `materials[..]`.
 pub fn kirchhoff<const D: usize>(
     particles: &Particles<D>,
     materials: &[Material],
@@ -16,7 +17,19 @@ pub fn kirchhoff<const D: usize>(
 where
     Dim<D>: DimOps<D>,
 {
-    match &materials[particles.material[p] as usize] {
+    stress(particles, &materials[particles.material[p] as usize], p)
+}
+
+/// Kirchhoff stress τ = J σ (Pa) of particle `p` behaving as `material`.
+pub(crate) fn stress<const D: usize>(
+    particles: &Particles<D>,
+    material: &Material,
+    p: usize,
+) -> Matrix<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    match material {
         Material::Solid(s) => s.kirchhoff(&particles.def_grad_of(p), &particles.plastic_of(p)),
         Material::Fluid(fl) => fl.kirchhoff(particles.jacobian_of(p), &particles.affine[p]),
     }
@@ -46,7 +59,7 @@ pub(crate) fn p2g<const D: usize>(
     kernel: Kernel,
     transfer: Transfer,
     particles: &Particles<D>,
-    materials: &[Material],
+    materials: &MaterialView<'_>,
     blocks: &mut Blocks<D>,
     grid: &mut GridNodes<D>,
     momentum0: Option<&mut Vec<Vector<D>>>,
@@ -58,9 +71,18 @@ pub(crate) fn p2g<const D: usize>(
     let minv = kernel.mls_inertia_inv(spec.dx);
     let apic = matches!(transfer, Transfer::Apic);
     let with0 = momentum0.is_some();
-    blocks.scatter(spec, kernel, grid, momentum0, |p, buf| {
+    // The grid update overwrites every velocity; only the length matters here.
+    grid.velocity.resize(spec.num_nodes(), Vector::<D>::zeros());
+    let out = Sums {
+        mass: &mut grid.mass,
+        momentum: &mut grid.momentum,
+        momentum0,
+        extra: None,
+    };
+    blocks.scatter(spec, kernel, out, |p, buf| {
         let (xp, vp, m) = (particles.x[p], particles.v[p], particles.mass[p]);
-        let stress = kirchhoff(particles, materials, p) * (-dt * particles.volume0[p]);
+        let stress =
+            stress(particles, &materials.get(particles, p), p) * (-dt * particles.volume0[p]);
         let affine = if apic {
             particles.affine[p] * m
         } else {
@@ -91,7 +113,13 @@ pub(crate) fn p2g_mass<const D: usize>(
     blocks: &mut Blocks<D>,
     grid: &mut GridNodes<D>,
 ) {
-    blocks.scatter(spec, kernel, grid, None, |p, buf| {
+    let out = Sums {
+        mass: &mut grid.mass,
+        momentum: &mut grid.momentum,
+        momentum0: None,
+        extra: None,
+    };
+    blocks.scatter(spec, kernel, out, |p, buf| {
         let m = particles.mass[p];
         Stencil::new(kernel, spec, &particles.x[p]).for_each(|node, w, _| {
             let k = buf.local(&node);

@@ -1,5 +1,6 @@
 //! Parameters of the explicit MLS-MPM solver.
 
+use crate::multigrid::{Dissolution, Mixing, Phases, Porous};
 use mpm_core::{Kernel, OnInstability, Real, TimeStepPolicy, Vector};
 use serde::{Deserialize, Serialize};
 
@@ -65,6 +66,14 @@ pub struct ExplicitParams<const D: usize> {
     pub soft_walls: Option<SoftWalls>,
     /// Prescribed body force in addition to gravity, if any.
     pub body_force: Option<BodyForce<D>>,
+    /// Phases and the couplings between their grids (one phase by default).
+    pub phases: Phases,
+    /// Porous interaction (volume fraction, φ_eff, parameter changes), if any.
+    pub porous: Option<Porous>,
+    /// Miscible mixing by concentration diffusion, if any.
+    pub mixing: Option<Mixing>,
+    /// Dissolution of a solid into a fluid, if any.
+    pub dissolution: Option<Dissolution>,
 }
 
 impl<const D: usize> Default for ExplicitParams<D> {
@@ -78,6 +87,10 @@ impl<const D: usize> Default for ExplicitParams<D> {
             volume: VolumeUpdate::Deformation,
             soft_walls: None,
             body_force: None,
+            phases: Phases::default(),
+            porous: None,
+            mixing: None,
+            dissolution: None,
         }
     }
 }

@@ -7,10 +7,12 @@
 
 mod elastic;
 mod fluid;
+mod modulation;
 mod plasticity;
 
 pub use elastic::{ElasticModel, Hyperelastic, Lame};
 pub use fluid::{FluidMaterial, Tait};
+pub use modulation::{Interaction, Parameter, Scaling};
 pub use plasticity::{DruckerPrager, PlasticState, Plasticity, Snow};
 
 use crate::math::{Dim, DimOps, Matrix, Real};

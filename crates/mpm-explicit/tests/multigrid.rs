@@ -1,0 +1,534 @@
+//! Physics checks of multi-grid MLS-MPM (multigrid paper §4): phases, couplings, porous
+//! interaction, mixing and dissolution.
+
+mod common;
+
+use common::{fill_box, jelly, water};
+use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
+use mpm_core::material::{FluidMaterial, Interaction, Parameter, Scaling, Tait};
+use mpm_core::{
+    Columns, Dim, DimOps, GridSpec, Kernel, Material, Matrix, Particles, Real, TimeStepPolicy,
+    Vector,
+};
+use mpm_explicit::{
+    Activation, BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, DiffusionScheme,
+    Dissolution, Drag, EffectiveFraction, ExplicitParams, ExplicitSolver, Friction, Mixing, Phases,
+    Porous, PressureBuoyancy,
+};
+
+fn spec<const D: usize>(n: usize) -> GridSpec<D> {
+    GridSpec::new(Vector::<D>::zeros(), 1.0 / (n - 1) as Real, [n; D])
+}
+
+fn columns(materials: &[Material], phase: bool) -> Columns {
+    Columns {
+        phase,
+        ..Columns::for_materials(materials)
+    }
+}
+
+fn coupling(kind: CouplingKind) -> Coupling {
+    Coupling {
+        phases: [0, 1],
+        kind,
+        buoyancy: None,
+        pressure_buoyancy: PressureBuoyancy::Off,
+    }
+}
+
+fn walls() -> Boundaries<2> {
+    Boundaries {
+        walls: Some(DomainWalls {
+            contact: Contact {
+                kind: ContactKind::Slip,
+                friction: 0.0,
+            },
+            thickness: 2,
+        }),
+        colliders: Vec::new(),
+    }
+}
+
+/// A jelly block (material 0) dropped into a water pool (material 1) in a walled box; with
+/// `phase`, the water is phase 1.
+fn jelly_and_water(phase: bool, gravity: Real) -> (GridSpec<2>, Vec<Material>, Particles<2>) {
+    let spec = spec::<2>(41);
+    let materials = vec![jelly(2e4, 0.3, 400.0), water(2e4, 0.0)];
+    let mut particles = Particles::new(columns(&materials, phase));
+    let still = |_: &Vector<2>| (Vector::<2>::new(0.3, -0.5), Default::default());
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.35, 0.35), Vector::<2>::new(0.6, 0.6)),
+        2,
+        (0, 400.0),
+        still,
+    );
+    let n_solid = particles.len();
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.1, 0.1), Vector::<2>::new(0.9, 0.35)),
+        2,
+        (1, 1000.0),
+        |_| Default::default(),
+    );
+    if let Some(k) = &mut particles.phase {
+        k[n_solid..].fill(1);
+    }
+    let _ = gravity;
+    (spec, materials, particles)
+}
+
+fn solver(
+    (spec, materials, particles): (GridSpec<2>, Vec<Material>, Particles<2>),
+    phases: Phases,
+    boundaries: Boundaries<2>,
+    gravity: Real,
+) -> ExplicitSolver<2> {
+    let params = ExplicitParams {
+        gravity: Vector::<2>::new(0.0, gravity),
+        time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+        phases,
+        ..ExplicitParams::default()
+    };
+    ExplicitSolver::new(spec, params, materials, boundaries, particles).unwrap()
+}
+
+fn max_position_difference(a: &Particles<2>, b: &Particles<2>) -> Real {
+    a.x.iter()
+        .zip(&b.x)
+        .map(|(x, y)| (x - y).norm())
+        .fold(0.0, Real::max)
+}
+
+#[test]
+fn one_phase_with_a_phase_column_is_bitwise_the_single_grid_run() {
+    let mut plain = solver(
+        jelly_and_water(false, -9.81),
+        Phases::default(),
+        walls(),
+        -9.81,
+    );
+    let mut tagged = jelly_and_water(true, -9.81);
+    tagged.2.phase.as_mut().unwrap().fill(0);
+    let mut tagged = solver(tagged, Phases::default(), walls(), -9.81);
+    for _ in 0..40 {
+        plain.step().unwrap();
+        tagged.step().unwrap();
+    }
+    assert!(plain.stage_plan().iter().all(|s| !s.contains("coupling")));
+    for p in 0..plain.particles.len() {
+        assert_eq!(plain.particles.x[p], tagged.particles.x[p]);
+        assert_eq!(plain.particles.v[p], tagged.particles.v[p]);
+    }
+}
+
+#[test]
+fn full_and_maximal_drag_reproduce_the_single_grid_run() {
+    let steps = 100;
+    let mut single = solver(
+        jelly_and_water(false, -9.81),
+        Phases::default(),
+        walls(),
+        -9.81,
+    );
+    for _ in 0..steps {
+        single.step().unwrap();
+    }
+    for kind in [
+        CouplingKind::Full,
+        CouplingKind::Drag(Drag::Coefficient(1e30)),
+        CouplingKind::Contact(ContactCoupling {
+            normal_share: 1.0,
+            friction: Friction::Proportional(1.0),
+            activation: Activation::Always,
+        }),
+    ] {
+        let phases = Phases {
+            count: 2,
+            couplings: vec![coupling(kind)],
+        };
+        let mut two = solver(jelly_and_water(true, -9.81), phases, walls(), -9.81);
+        for _ in 0..steps {
+            two.step().unwrap();
+        }
+        let d = max_position_difference(&single.particles, &two.particles);
+        // Round-off only: positions are O(1) m and the runs differ in summation order.
+        assert!(d < 1e-12, "{kind:?}: positions differ by {d:e} m");
+        assert!(two
+            .stage_plan()
+            .iter()
+            .any(|s| s.starts_with("coupling 0-1")));
+    }
+}
+
+#[test]
+fn couplings_conserve_total_momentum_without_gravity() {
+    let contact = CouplingKind::Contact(ContactCoupling {
+        normal_share: 1.0,
+        friction: Friction::Coulomb(0.3),
+        activation: Activation::OnApproach,
+    });
+    for kind in [
+        contact,
+        CouplingKind::Drag(Drag::Coefficient(1e-2)),
+        CouplingKind::Full,
+    ] {
+        let mut c = coupling(kind);
+        c.buoyancy = Some(BuoyancyPenalty { strength: 1.0 });
+        let phases = Phases {
+            count: 2,
+            couplings: vec![c],
+        };
+        let mut s = solver(
+            jelly_and_water(true, 0.0),
+            phases,
+            Boundaries::default(),
+            0.0,
+        );
+        let p0 = s.diagnostics().momentum;
+        let scale: Real = (0..s.particles.len())
+            .map(|p| s.particles.mass[p] * s.particles.v[p].norm())
+            .sum();
+        for _ in 0..150 {
+            s.step().unwrap();
+        }
+        let drift = (s.diagnostics().momentum - p0).norm() / scale;
+        assert!(drift < 1e-13, "{kind:?}: relative momentum drift {drift:e}");
+    }
+}
+
+/// A water column sliding down along a fixed vertical jelly wall in zero gravity with a
+/// tangential velocity: returns the mean tangential (y) velocity of the water after `steps`.
+fn slide(phases: Phases, phase: bool) -> (Real, Real) {
+    let spec = spec::<2>(41);
+    let materials = vec![jelly(1e5, 0.3, 1000.0), water(2e4, 0.0)];
+    let mut particles = Particles::new(columns(&materials, phase));
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.3, 0.2), Vector::<2>::new(0.5, 0.8)),
+        2,
+        (0, 1000.0),
+        |_| Default::default(),
+    );
+    let n_solid = particles.len();
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.5, 0.3), Vector::<2>::new(0.6, 0.7)),
+        2,
+        (1, 1000.0),
+        // Pressed gently onto the wall while sliding down it.
+        |_| (Vector::<2>::new(-0.05, -1.0), Default::default()),
+    );
+    if let Some(k) = &mut particles.phase {
+        k[n_solid..].fill(1);
+    }
+    let mut s = solver(
+        (spec, materials, particles),
+        phases,
+        Boundaries::default(),
+        0.0,
+    );
+    let mean_vy = |s: &ExplicitSolver<2>| {
+        let water = n_solid..s.particles.len();
+        let n = water.len() as Real;
+        water.map(|p| s.particles.v[p].y).sum::<Real>() / n
+    };
+    let before = mean_vy(&s);
+    for _ in 0..250 {
+        s.step().unwrap();
+    }
+    (before, mean_vy(&s))
+}
+
+#[test]
+fn frictionless_contact_slides_where_the_single_grid_sticks() {
+    let (v0, sticky) = slide(Phases::default(), false);
+    let contact = Phases {
+        count: 2,
+        couplings: vec![coupling(CouplingKind::Contact(ContactCoupling {
+            normal_share: 1.0,
+            friction: Friction::Coulomb(0.0),
+            activation: Activation::OnApproach,
+        }))],
+    };
+    let (_, sliding) = slide(contact, true);
+    // The single grid drags the whole water column with the heavy wall.
+    assert!(
+        sticky.abs() < 0.6 * v0.abs(),
+        "single grid: {sticky} of {v0}"
+    );
+    // δ = 0: only the normal approach is stopped; the water keeps its tangential velocity up
+    // to the tangential share of the discrete normals at the ends of the column (about 2%).
+    assert!(
+        (sliding - v0).abs() < 0.05 * v0.abs(),
+        "contact: {sliding} of {v0}"
+    );
+}
+
+fn mixing_box<const D: usize>(scheme: DiffusionScheme) -> ExplicitSolver<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    let spec = spec::<D>(25);
+    let fluid = FluidMaterial {
+        density: 1000.0,
+        eos: Tait {
+            bulk_modulus: 1e4,
+            gamma: 7.0,
+        },
+        viscosity: 0.0,
+    };
+    let thick = FluidMaterial {
+        viscosity: 0.5,
+        ..fluid
+    };
+    let materials = vec![Material::Fluid(fluid), Material::Fluid(thick)];
+    let cols = Columns {
+        concentration: true,
+        ..Columns::for_materials(&materials)
+    };
+    let mut particles = Particles::new(cols);
+    let (lo, hi) = (0.2, 0.8);
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<D>::from_element(lo), Vector::<D>::from_element(hi)),
+        2,
+        (0, 1000.0),
+        |_| (Vector::<D>::zeros(), Matrix::<D>::zeros()),
+    );
+    for p in 0..particles.len() {
+        if particles.x[p][0] > 0.5 {
+            particles.material[p] = 1;
+            particles.concentration.as_mut().unwrap()[p] = 1.0;
+        }
+    }
+    let params = ExplicitParams {
+        time_step: TimeStepPolicy::Fixed { dt: 1e-3 },
+        mixing: Some(Mixing {
+            fluids: [0, 1],
+            diffusivity: 1e-3,
+            scheme,
+        }),
+        ..ExplicitParams::default()
+    };
+    ExplicitSolver::new(spec, params, materials, Boundaries::default(), particles).unwrap()
+}
+
+fn diffusion_mixes_and_conserves<const D: usize>()
+where
+    Dim<D>: DimOps<D>,
+{
+    let mut s = mixing_box::<D>(DiffusionScheme::KernelGradient);
+    let total = |s: &ExplicitSolver<D>| -> Real {
+        let c = s.particles.concentration.as_ref().unwrap();
+        (0..c.len()).map(|p| s.particles.volume0[p] * c[p]).sum()
+    };
+    let spread = |s: &ExplicitSolver<D>| -> Real {
+        let c = s.particles.concentration.as_ref().unwrap();
+        c.iter().fold(0.0, |m: Real, &a| m.max((a - 0.5).abs()))
+    };
+    let (q0, m0) = (total(&s), s.diagnostics().mass);
+    for _ in 0..200 {
+        s.step().unwrap();
+    }
+    let q = total(&s);
+    // Round-off only: about 1e-15 per step.
+    assert!(
+        ((q - q0) / q0).abs() < 1e-14 * 200.0,
+        "Σ V α drifted by {:e}",
+        (q - q0) / q0
+    );
+    // Equal densities: mass unchanged.
+    assert!(((s.diagnostics().mass - m0) / m0).abs() < 1e-13);
+    assert!(
+        spread(&s) < 0.5,
+        "the interface smoothed: max |α − 1/2| = {}",
+        spread(&s)
+    );
+    assert!(s.stage_plan().iter().any(|p| p.starts_with("diffusion")));
+}
+
+#[test]
+fn diffusion_mixes_and_conserves_concentration() {
+    diffusion_mixes_and_conserves::<2>();
+    diffusion_mixes_and_conserves::<3>();
+}
+
+#[test]
+fn porous_interaction_wets_the_solid_and_scales_its_parameters() {
+    // Sand-like jelly (phase 0) under water (phase 1), overlapping, drag coupled.
+    let spec = spec::<2>(33);
+    let materials = vec![jelly(1e5, 0.3, 1500.0), water(2e4, 0.0)];
+    let cols = Columns {
+        phase: true,
+        volume_fraction: true,
+        ..Columns::for_materials(&materials)
+    };
+    let mut particles = Particles::new(cols);
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.2, 0.1), Vector::<2>::new(0.5, 0.4)),
+        2,
+        (0, 1500.0),
+        |_| Default::default(),
+    );
+    let n_solid = particles.len();
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.2, 0.3), Vector::<2>::new(0.5, 0.6)),
+        2,
+        (1, 1000.0),
+        |_| Default::default(),
+    );
+    particles.phase.as_mut().unwrap()[n_solid..].fill(1);
+    let params = ExplicitParams {
+        gravity: Vector::<2>::new(0.0, -9.81),
+        time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+        phases: Phases {
+            count: 2,
+            couplings: vec![coupling(CouplingKind::Drag(Drag::Coefficient(1e30)))],
+        },
+        porous: Some(Porous {
+            update: EffectiveFraction::Max,
+            interactions: vec![Interaction {
+                material: 0,
+                parameter: Parameter::YoungsModulus,
+                scaling: Scaling {
+                    offset: 1.0,
+                    slope: -0.9,
+                    exponent: 1.0,
+                },
+            }],
+        }),
+        ..ExplicitParams::default()
+    };
+    let mut s = ExplicitSolver::new(spec, params, materials, walls(), particles).unwrap();
+    for _ in 0..50 {
+        s.step().unwrap();
+    }
+    let phi = s.particles.volume_fraction.as_ref().unwrap();
+    let solid = &phi[..n_solid];
+    // The overlap band is wet (φ = 1 inside it), the bottom of the sand is not yet.
+    let top = (0..n_solid)
+        .filter(|&p| s.particles.x[p].y > 0.33)
+        .map(|p| phi[p])
+        .fold(1.0, Real::min);
+    let bottom = (0..n_solid)
+        .filter(|&p| s.particles.x[p].y < 0.15)
+        .map(|p| phi[p])
+        .fold(0.0, Real::max);
+    assert!(top > 0.99, "overlap band φ_eff ≥ {top}");
+    assert!(bottom < 0.01, "dry bottom φ_eff ≤ {bottom}");
+    assert!(solid.iter().all(|&f| (0.0..=1.0).contains(&f)));
+    // Eq. 21 never dries: φ_eff is monotone in time.
+    let before = phi.to_vec();
+    for _ in 0..20 {
+        s.step().unwrap();
+    }
+    let after = s.particles.volume_fraction.as_ref().unwrap();
+    assert!(before.iter().zip(after).all(|(b, a)| a >= b));
+}
+
+#[test]
+fn dissolution_turns_solid_into_fluid_and_keeps_mass() {
+    let spec = spec::<2>(33);
+    let solvent = FluidMaterial {
+        density: 1000.0,
+        eos: Tait {
+            bulk_modulus: 2e4,
+            gamma: 7.0,
+        },
+        viscosity: 0.0,
+    };
+    let dissolved = FluidMaterial {
+        viscosity: 0.1,
+        ..solvent
+    };
+    let materials = vec![
+        jelly(5e4, 0.3, 1000.0),
+        Material::Fluid(solvent),
+        Material::Fluid(dissolved),
+    ];
+    let cols = Columns {
+        phase: true,
+        concentration: true,
+        ..Columns::for_materials(&materials)
+    };
+    let mut particles = Particles::new(cols);
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.4, 0.1), Vector::<2>::new(0.6, 0.3)),
+        2,
+        (0, 1000.0),
+        |_| Default::default(),
+    );
+    let n_solid = particles.len();
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.1, 0.1), Vector::<2>::new(0.4, 0.3)),
+        2,
+        (1, 1000.0),
+        |_| Default::default(),
+    );
+    particles.phase.as_mut().unwrap()[n_solid..].fill(1);
+    let params = ExplicitParams {
+        gravity: Vector::<2>::new(0.0, -9.81),
+        time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+        phases: Phases {
+            count: 2,
+            couplings: vec![coupling(CouplingKind::Contact(ContactCoupling {
+                normal_share: 1.0,
+                friction: Friction::Coulomb(0.5),
+                activation: Activation::OnApproach,
+            }))],
+        },
+        mixing: Some(Mixing {
+            fluids: [1, 2],
+            diffusivity: 1e-3,
+            scheme: DiffusionScheme::KernelGradient,
+        }),
+        dissolution: Some(Dissolution {
+            solid: 0,
+            into: 2,
+            fluid_phase: 1,
+            rate: 20.0,
+        }),
+        kernel: Kernel::Quadratic,
+        ..ExplicitParams::default()
+    };
+    let mut s = ExplicitSolver::new(spec, params, materials, walls(), particles).unwrap();
+    let m0 = s.diagnostics().mass;
+    for _ in 0..600 {
+        s.step().unwrap();
+    }
+    let converted = (0..n_solid)
+        .filter(|&p| s.particles.material[p] == 2)
+        .count();
+    assert!(converted > 0, "some solid dissolved");
+    assert!(converted < n_solid, "not all at once");
+    for p in (0..n_solid).filter(|&p| s.particles.material[p] == 2) {
+        assert_eq!(s.particles.phase.as_ref().unwrap()[p], 1);
+    }
+    // The face touching the water dissolves first.
+    let progress = s.particles.concentration.as_ref().unwrap();
+    let left: Real = (0..n_solid)
+        .filter(|&p| s.particles.material[p] == 0 && s.particles.x[p].x < 0.45)
+        .map(|p| progress[p])
+        .fold(0.0, Real::max);
+    let right: Real = (0..n_solid)
+        .filter(|&p| s.particles.material[p] == 0 && s.particles.x[p].x > 0.55)
+        .map(|p| progress[p])
+        .fold(0.0, Real::max);
+    assert!(left > right, "wet face {left} vs dry face {right}");
+    // Equal densities: the mass is unchanged by mixing and by the change of material.
+    assert!(((s.diagnostics().mass - m0) / m0).abs() < 1e-12);
+}
