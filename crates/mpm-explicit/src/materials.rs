@@ -63,3 +63,95 @@ impl<'a> MaterialView<'a> {
         self.get(particles, p).density()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::multigrid::{DiffusionScheme, EffectiveFraction};
+    use mpm_core::material::{
+        ElasticModel, FluidMaterial, Lame, Parameter, Scaling, SolidMaterial, Tait,
+    };
+    use mpm_core::{Columns, ParticleExtra, ParticleInit, Vector};
+
+    #[test]
+    fn view_applies_interactions_at_phi_eff_and_blends_mixtures() {
+        let solid = Material::Solid(SolidMaterial {
+            density: 1000.0,
+            elastic: ElasticModel::FixedCorotated(Lame {
+                mu: 10.0,
+                lambda: 20.0,
+            }),
+            plasticity: Default::default(),
+        });
+        let thin = FluidMaterial {
+            density: 1000.0,
+            eos: Tait {
+                bulk_modulus: 1e4,
+                gamma: 7.0,
+            },
+            viscosity: 0.0,
+        };
+        let thick = FluidMaterial {
+            viscosity: 4.0,
+            density: 600.0,
+            ..thin
+        };
+        let table = vec![solid, Material::Fluid(thin), Material::Fluid(thick)];
+        let cols = Columns {
+            volume_fraction: true,
+            concentration: true,
+            ..Columns::for_materials(&table)
+        };
+        let mut particles = Particles::<2>::new(cols);
+        for (material, phi, alpha) in [(0, 0.5, 0.0), (1, 0.0, 0.25), (2, 0.0, 1.0)] {
+            particles.push_with(
+                ParticleInit {
+                    x: Vector::<2>::zeros(),
+                    v: Vector::<2>::zeros(),
+                    mass: 1.0,
+                    volume0: 1.0,
+                    material,
+                    affine: Default::default(),
+                },
+                ParticleExtra {
+                    phase: 0,
+                    volume_fraction: phi,
+                    concentration: alpha,
+                },
+            );
+        }
+        let porous = Porous {
+            update: EffectiveFraction::Max,
+            interactions: vec![Interaction {
+                material: 0,
+                parameter: Parameter::YoungsModulus,
+                scaling: Scaling {
+                    offset: 1.0,
+                    slope: -0.9,
+                    exponent: 1.0,
+                },
+            }],
+        };
+        let mixing = Mixing {
+            fluids: [1, 2],
+            diffusivity: 0.0,
+            scheme: DiffusionScheme::KernelGradient,
+        };
+        let view = MaterialView::new(&table, Some(&porous), Some(&mixing));
+        let Material::Solid(s) = view.get(&particles, 0).into_owned() else {
+            panic!("solid expected")
+        };
+        // E × (1 − 0.9 · 0.5) = 0.55 E: both Lamé parameters scale.
+        let lame = s.elastic.lame();
+        assert!((lame.mu - 5.5).abs() < 1e-12 && (lame.lambda - 11.0).abs() < 1e-12);
+        let Material::Fluid(f) = view.get(&particles, 1).into_owned() else {
+            panic!("fluid expected")
+        };
+        assert_eq!(f.viscosity, 1.0);
+        assert_eq!(f.density, 900.0);
+        assert_eq!(view.rest_density(&particles, 2), 600.0);
+        // Without interactions or mixing the table entry is borrowed as is.
+        let plain = MaterialView::new(&table, None, None);
+        assert!(matches!(plain.get(&particles, 0), Cow::Borrowed(_)));
+    }
+}

@@ -936,6 +936,18 @@ fn validate_multigrid<const D: usize>(
                 "needs the particle column `concentration`".into(),
             );
         }
+        let fluids = params.mixing.map_or([u32::MAX; 2], |m| m.fluids);
+        if let Some(p) = (0..particles.len()).find(|&p| fluids.contains(&particles.material[p])) {
+            if particles.phase_of(p) != d.fluid_phase {
+                return fail(
+                    "dissolution",
+                    format!(
+                        "the mixing fluids must be in the solvent phase {}",
+                        d.fluid_phase
+                    ),
+                );
+            }
+        }
     }
     Ok(())
 }

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{fill_box, jelly, water};
+use common::{fill_box, jelly, water, with_threads};
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::material::{FluidMaterial, Interaction, Parameter, Scaling, Tait};
 use mpm_core::{
@@ -436,8 +436,10 @@ fn porous_interaction_wets_the_solid_and_scales_its_parameters() {
     assert!(before.iter().zip(after).all(|(b, a)| a >= b));
 }
 
-#[test]
-fn dissolution_turns_solid_into_fluid_and_keeps_mass() {
+/// A jelly block (material 0, phase 0) dissolving into water (material 1, phase 1) as a viscous
+/// solute fluid (material 2), contact coupled, with diffusion; returns the solver and the number
+/// of solid particles (the first ones).
+fn dissolution_scene() -> (ExplicitSolver<2>, usize) {
     let spec = spec::<2>(33);
     let solvent = FluidMaterial {
         density: 1000.0,
@@ -505,7 +507,13 @@ fn dissolution_turns_solid_into_fluid_and_keeps_mass() {
         kernel: Kernel::Quadratic,
         ..ExplicitParams::default()
     };
-    let mut s = ExplicitSolver::new(spec, params, materials, walls(), particles).unwrap();
+    let s = ExplicitSolver::new(spec, params, materials, walls(), particles).unwrap();
+    (s, n_solid)
+}
+
+#[test]
+fn dissolution_turns_solid_into_fluid_and_keeps_mass() {
+    let (mut s, n_solid) = dissolution_scene();
     let m0 = s.diagnostics().mass;
     for _ in 0..600 {
         s.step().unwrap();
@@ -531,4 +539,113 @@ fn dissolution_turns_solid_into_fluid_and_keeps_mass() {
     assert!(left > right, "wet face {left} vs dry face {right}");
     // Equal densities: the mass is unchanged by mixing and by the change of material.
     assert!(((s.diagnostics().mass - m0) / m0).abs() < 1e-12);
+}
+
+/// Viscous fluid (Eq. 12, symmetrised as `μ(∇v + ∇vᵀ)`, the same force for incompressible
+/// flow): a free fluid slab of height H with the shear mode `v_x = A cos(π y/H)` (free surfaces,
+/// so the shear stress vanishes there) decays as `exp(−ν (π/H)² t)`.
+#[test]
+fn viscous_shear_mode_decays_at_the_analytic_rate() {
+    let spec = spec::<2>(65);
+    let (h, mu, rho) = (0.25, 60.0, 1000.0);
+    let materials = vec![water(1e4, mu)];
+    let mut particles = Particles::new(Columns::for_materials(&materials));
+    let (y0, amp) = (0.375, 0.05);
+    let k = std::f64::consts::PI / h;
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.05, y0), Vector::<2>::new(0.95, y0 + h)),
+        2,
+        (0, rho),
+        |x| {
+            let s = (k * (x.y - y0)).sin();
+            let v = Vector::<2>::new(amp * (k * (x.y - y0)).cos(), 0.0);
+            let c = Matrix::<2>::new(0.0, -amp * k * s, 0.0, 0.0);
+            (v, c)
+        },
+    );
+    let dt = 2e-4;
+    let params = ExplicitParams {
+        time_step: TimeStepPolicy::Fixed { dt },
+        ..ExplicitParams::default()
+    };
+    let mut s =
+        ExplicitSolver::new(spec, params, materials, Boundaries::default(), particles).unwrap();
+    // Amplitude by projection onto the mode, over the middle third in x (away from the ends).
+    let amplitude = |s: &ExplicitSolver<2>| {
+        let (mut num, mut den) = (0.0, 0.0);
+        for p in 0..s.particles.len() {
+            let x = s.particles.x[p];
+            if (0.35..0.65).contains(&x.x) {
+                let m = (k * (x.y - y0)).cos();
+                num += s.particles.v[p].x * m;
+                den += m * m;
+            }
+        }
+        num / den
+    };
+    let a0 = amplitude(&s);
+    let steps = 500;
+    for _ in 0..steps {
+        s.step().unwrap();
+    }
+    let t = steps as Real * dt;
+    let expected = (-(mu / rho) * k * k * t).exp();
+    let measured = amplitude(&s) / a0;
+    assert!(
+        (measured / expected - 1.0).abs() < 0.05,
+        "amplitude ratio {measured:.4} vs exp(−ν k² t) = {expected:.4}"
+    );
+}
+
+/// A uniform concentration is a steady state of both diffusion schemes (the reason the paper
+/// normalised Eq. 34; the MLS difference form is exact for constant α instead).
+#[test]
+fn uniform_concentration_stays_uniform() {
+    for scheme in [
+        DiffusionScheme::KernelGradient,
+        DiffusionScheme::MlsDifference,
+    ] {
+        let mut s = mixing_box::<2>(scheme);
+        s.particles.concentration.as_mut().unwrap().fill(0.3);
+        for _ in 0..50 {
+            s.step().unwrap();
+        }
+        let c = s.particles.concentration.as_ref().unwrap();
+        let worst = c.iter().fold(0.0, |m: Real, &a| m.max((a - 0.3).abs()));
+        assert!(worst < 1e-13, "{scheme:?}: max |α − 0.3| = {worst:e}");
+    }
+}
+
+/// Multi-grid runs (coupling, diffusion, dissolution) are bitwise identical for any thread count.
+#[test]
+fn multigrid_steps_are_bitwise_equal_for_any_thread_count() {
+    let run = |threads: usize| {
+        with_threads(threads, || {
+            let (mut s, _) = dissolution_scene();
+            for _ in 0..200 {
+                s.step().unwrap();
+            }
+            s.particles
+        })
+    };
+    let (a, b) = (run(1), run(4));
+    let bits = |p: &Particles<2>| -> Vec<u64> {
+        let mut v: Vec<u64> =
+            p.x.iter()
+                .flat_map(|x| x.iter().map(|c| c.to_bits()))
+                .collect();
+        v.extend(
+            p.concentration
+                .as_ref()
+                .unwrap()
+                .iter()
+                .map(|c| c.to_bits()),
+        );
+        v.extend(p.mass.iter().map(|m| m.to_bits()));
+        v
+    };
+    assert_eq!(a.material, b.material);
+    assert!(bits(&a) == bits(&b), "1 and 4 threads differ");
 }

@@ -3,7 +3,7 @@
 mod common;
 
 use approx::assert_relative_eq;
-use common::{fill_box, jelly, particles_for, water};
+use common::{fill_box, jelly, particles_for, water, with_threads};
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::{
     Dim, DimOps, GridSpec, Kernel, Matrix, OnInstability, Real, Stage, TimeStepPolicy, Vector,
@@ -211,11 +211,7 @@ fn dam_break_energy_does_not_grow() {
 #[test]
 fn serial_and_parallel_steps_are_bitwise_equal() {
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        with_threads(threads, || {
             let spec = spec::<2>(65);
             let materials = vec![jelly(1e5, 0.3, 500.0), water(1e5, 1e-2)];
             let mut particles = particles_for::<2>(&materials);

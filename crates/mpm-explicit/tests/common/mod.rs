@@ -63,3 +63,12 @@ pub fn fill_box<const D: usize>(
 pub fn particles_for<const D: usize>(materials: &[Material]) -> Particles<D> {
     Particles::new(Columns::for_materials(materials))
 }
+
+/// Runs `f` on a rayon pool of `threads` threads.
+pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a rayon thread pool")
+        .install(f)
+}
