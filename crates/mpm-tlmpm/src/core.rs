@@ -1,0 +1,426 @@
+//! State and stages shared by the implicit and the explicit TLMPM solvers.
+
+use crate::error::{NewtonError, StepError};
+use crate::params::{TlmpmParams, Transfer};
+use crate::reference::{Constraints, ReferenceConfig};
+use crate::transfer::{self, Update};
+use mpm_core::material::{ElasticModel, Lame, Plasticity};
+use mpm_core::timestep::{choose_dt, stable_dt};
+use mpm_core::{
+    Diagnostics, Dim, DimOps, GridSpec, Instability, Location, Material, Matrix, OnInstability,
+    Particles, Real, SetupError, Stage, TimeStepPolicy, Vector, Violation,
+};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::Duration;
+
+/// Why one attempt at a step failed.
+#[derive(Clone, Debug)]
+pub(crate) enum Failure {
+    /// A guard check failed in the named stage.
+    Guard(Stage, (Location, Violation, Real)),
+    /// Newton's method failed.
+    Newton(NewtonError),
+}
+
+/// Wall-clock time spent inside Newton's method, by kind of work, accumulated over all steps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct NewtonTimes {
+    /// Energy evaluations (initial guess and line search).
+    pub energy: Duration,
+    /// Gradient evaluations (stresses and the internal-force gather).
+    pub gradient: Duration,
+    /// Per-particle elasticity tensors `∂P/∂F` and their SPD projection.
+    pub tangent: Duration,
+    /// Sparse matrix assembly (Cholesky solver only).
+    pub assembly: Duration,
+    /// Numeric Cholesky factorisation (the symbolic one is done once, at set-up).
+    pub factorization: Duration,
+    /// Triangular solves or CG iterations.
+    pub linear_solve: Duration,
+}
+
+/// Wall-clock time spent in each stage, accumulated over all steps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct StageTimes {
+    /// Caching the reference configuration (weights, gradients, connectivity, sparsity
+    /// pattern and symbolic factorisation): once, at set-up.
+    pub reference: Duration,
+    /// Time-step selection.
+    pub time_step: Duration,
+    /// Momentum to the reference grid (P2G).
+    pub p2g: Duration,
+    /// External nodal forces (gravity).
+    pub external_forces: Duration,
+    /// Grid solve: Newton (implicit) or the symplectic Euler update (explicit).
+    pub solve: Duration,
+    /// G2P, F update and guard checks.
+    pub g2p: Duration,
+    /// Writing accepted particle updates.
+    pub commit: Duration,
+    /// Breakdown of the implicit solve.
+    pub newton: NewtonTimes,
+}
+
+impl StageTimes {
+    /// `(stage name, seconds)` for every stage, in execution order.
+    pub fn table(&self) -> [(&'static str, f64); 7] {
+        [
+            ("reference", self.reference.as_secs_f64()),
+            ("time_step", self.time_step.as_secs_f64()),
+            ("p2g", self.p2g.as_secs_f64()),
+            ("external_forces", self.external_forces.as_secs_f64()),
+            ("solve", self.solve.as_secs_f64()),
+            ("g2p", self.g2p.as_secs_f64()),
+            ("commit", self.commit.as_secs_f64()),
+        ]
+    }
+}
+
+/// Runs `f`, adding its wall-clock time to `acc`.
+pub(crate) fn timed<T>(acc: &mut Duration, f: impl FnOnce() -> T) -> T {
+    let t = std::time::Instant::now();
+    let r = f();
+    *acc += t.elapsed();
+    r
+}
+
+/// Particle state, cached reference data and grid scratch shared by both solvers.
+#[derive(Clone, Debug)]
+pub(crate) struct Core<const D: usize> {
+    pub params: TlmpmParams<D>,
+    pub materials: Vec<Material>,
+    /// Elastic model per material (a placeholder for materials no particle uses).
+    pub models: Vec<ElasticModel>,
+    pub particles: Particles<D>,
+    pub reference: ReferenceConfig<D>,
+    pub constraints: Constraints<D>,
+    pub time: Real,
+    pub steps: u64,
+    /// Node velocities after P2G, v̂ (m/s).
+    pub grid_velocity: Vec<Vector<D>>,
+    /// Node velocities of the last accepted step (m/s), kept with [`Transfer::Persistent`];
+    /// empty when P2G must run.
+    pub node_velocity: Vec<Vector<D>>,
+    /// External nodal forces (N).
+    pub external: Vec<Vector<D>>,
+    /// Node displacements of the step, u = Δt v^{n+1} (m).
+    pub displacement: Vec<Vector<D>>,
+    /// G2P results awaiting the guard checks.
+    pub updates: Vec<Update<D>>,
+}
+
+impl<const D: usize> Core<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    /// Validates the set-up and caches the reference configuration (particle positions now).
+    pub fn new(
+        spec: GridSpec<D>,
+        params: TlmpmParams<D>,
+        materials: Vec<Material>,
+        particles: Particles<D>,
+    ) -> Result<Self, SetupError> {
+        let models = validate(&spec, &params, &materials, &particles)?;
+        let reference = ReferenceConfig::new(spec, params.kernel, &particles.x, &particles.mass)?;
+        let constraints = Constraints::new(&reference, &params.fixed);
+        Ok(Self {
+            params,
+            materials,
+            models,
+            particles,
+            reference,
+            constraints,
+            time: 0.0,
+            steps: 0,
+            grid_velocity: Vec::new(),
+            node_velocity: Vec::new(),
+            external: Vec::new(),
+            displacement: Vec::new(),
+            updates: Vec::new(),
+        })
+    }
+
+    /// Deformation gradients at the start of the step.
+    pub fn def_grad(&self) -> &[Matrix<D>] {
+        self.particles.def_grad.as_deref().unwrap_or(&[])
+    }
+
+    /// Stage: momentum to the reference grid (with [`Transfer::Persistent`], the node
+    /// velocities of the last step when they exist).
+    pub fn momentum_to_grid(&mut self) {
+        if self.params.transfer == Transfer::Persistent && !self.node_velocity.is_empty() {
+            self.grid_velocity.clone_from(&self.node_velocity);
+            return;
+        }
+        let ps = &self.particles;
+        transfer::momentum_to_grid(
+            &self.reference,
+            self.params.transfer,
+            (&ps.v, &ps.affine, &ps.mass),
+            &mut self.grid_velocity,
+        );
+    }
+
+    /// Stage: external nodal forces `f^ext_i = m_i g` (N).
+    pub fn external_forces(&mut self) {
+        let g = self.params.gravity;
+        self.external.clear();
+        self.external
+            .extend(self.reference.node_masses().iter().map(|&m| g * m));
+    }
+
+    /// Guard check on the node displacements: all finite.
+    pub fn check_displacements(&self) -> Result<(), Failure> {
+        match self
+            .displacement
+            .par_iter()
+            .position_first(|u| u.iter().any(|c| !c.is_finite()))
+        {
+            Some(i) => Err(Failure::Guard(
+                Stage::GridUpdate,
+                (
+                    Location::Node(self.reference.grid_index(i)),
+                    Violation::NonFinite("grid velocity"),
+                    self.displacement[i]
+                        .iter()
+                        .copied()
+                        .find(|c| !c.is_finite())
+                        .unwrap_or(Real::NAN),
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// Stage: G2P into scratch storage, then the guard checks (particles are not modified).
+    pub fn grid_to_particles(&mut self, dt: Real) -> Result<(), Failure> {
+        transfer::grid_to_particles(
+            &self.reference,
+            &self.displacement,
+            dt,
+            (
+                &self.particles.x,
+                self.particles.def_grad.as_deref().unwrap_or(&[]),
+            ),
+            &mut self.updates,
+        );
+        let (materials, material) = (&self.materials, &self.particles.material);
+        transfer::check_updates(&self.updates, |p| {
+            materials[material[p] as usize].defined_for_inverted()
+        })
+        .map_err(|e| Failure::Guard(Stage::G2P, e))
+    }
+
+    /// Stage: writes the checked G2P results of a step of `dt` (s) into the particles (and the
+    /// node velocities into the persistent grid state when kept).
+    pub fn commit(&mut self, dt: Real) {
+        if self.params.transfer == Transfer::Persistent {
+            self.node_velocity.clear();
+            self.node_velocity
+                .extend(self.displacement.iter().map(|u| u / dt));
+        }
+        let Particles {
+            x,
+            v,
+            affine,
+            def_grad,
+            ..
+        } = &mut self.particles;
+        let f = def_grad.as_deref_mut().unwrap_or(&mut []);
+        for (p, u) in self.updates.iter().enumerate() {
+            x[p] = u.x;
+            v[p] = u.v;
+            affine[p] = u.affine;
+            if let Some(fp) = f.get_mut(p) {
+                *fp = u.def_grad;
+            }
+        }
+    }
+
+    /// The stable step bound (s) before `dt_max`: `cfl · Δx / max_p (|v_p| + c_p)` with the
+    /// P-wave speed `c_p` when `wave`, else `cfl · Δx / max_p |v_p|`. With a fixed dt, cfl = 1.
+    pub fn stable_dt(&self, wave: bool) -> Real {
+        let cfl = match self.params.time_step {
+            TimeStepPolicy::Adaptive { cfl, .. } => cfl,
+            TimeStepPolicy::Fixed { .. } => 1.0,
+        };
+        let ps = &self.particles;
+        let f = self.def_grad();
+        let max_signal = (0..ps.len())
+            .into_par_iter()
+            .map(|p| {
+                let c = match (&self.materials[ps.material[p] as usize], wave) {
+                    (Material::Solid(s), true) => {
+                        s.wave_speed(Dim::<D>::det(&f[p]), &Default::default())
+                    }
+                    _ => 0.0,
+                };
+                ps.v[p].norm() + c
+            })
+            .reduce(|| 0.0, nan_max);
+        stable_dt(cfl, self.reference.spec().dx, max_signal, 0.0, D)
+    }
+
+    /// Chooses the step under the policy.
+    pub fn choose_dt(&self, wave: bool) -> Result<Real, Failure> {
+        let stable = match self.params.time_step {
+            TimeStepPolicy::Fixed { .. } => Real::INFINITY,
+            TimeStepPolicy::Adaptive { .. } => self.stable_dt(wave),
+        };
+        choose_dt(&self.params.time_step, stable).map_err(|e| Failure::Guard(Stage::TimeStep, e))
+    }
+
+    /// Runs `attempt` with `dt0`, halving dt after a failure as the policy allows; advances
+    /// time and the step count on success. Returns the attempt's result, the accepted dt (s) and
+    /// the number of retries.
+    pub fn run_step<T>(
+        &mut self,
+        dt0: Real,
+        mut attempt: impl FnMut(&mut Self, Real) -> Result<T, Failure>,
+    ) -> Result<(T, Real, u32), StepError> {
+        let max_retries = match self.params.on_instability {
+            OnInstability::Abort => 0,
+            OnInstability::Retry { max_retries } => max_retries,
+        };
+        let (mut dt, mut retries) = (dt0, 0);
+        loop {
+            match attempt(self, dt) {
+                Ok(v) => {
+                    self.time += dt;
+                    self.steps += 1;
+                    return Ok((v, dt, retries));
+                }
+                Err(f) if retries == max_retries => return Err(self.error(f, dt, retries)),
+                Err(_) => (dt, retries) = (0.5 * dt, retries + 1),
+            }
+        }
+    }
+
+    /// The public error for a failure of the current step.
+    pub fn error(&self, failure: Failure, dt: Real, retries: u32) -> StepError {
+        match failure {
+            Failure::Guard(stage, (location, violation, value)) => {
+                StepError::Instability(Instability {
+                    step: self.steps,
+                    time: self.time,
+                    dt,
+                    stage,
+                    location,
+                    violation,
+                    value,
+                    retries,
+                })
+            }
+            Failure::Newton(source) => StepError::Newton {
+                step: self.steps,
+                time: self.time,
+                dt,
+                retries,
+                source,
+            },
+        }
+    }
+
+    /// Mass, momenta and energies of the particles (the affine field is a reference-space
+    /// gradient, so it adds no spin term).
+    pub fn diagnostics(&self) -> Diagnostics<D> {
+        Diagnostics::compute(&self.particles, &self.materials, None, &self.params.gravity)
+    }
+}
+
+/// `max` that propagates NaN, so a NaN speed is noticed instead of ignored.
+fn nan_max(a: Real, b: Real) -> Real {
+    if a.is_nan() || b.is_nan() {
+        Real::NAN
+    } else {
+        a.max(b)
+    }
+}
+
+/// Checks parameters, materials and columns; returns the elastic model of every material.
+fn validate<const D: usize>(
+    spec: &GridSpec<D>,
+    params: &TlmpmParams<D>,
+    materials: &[Material],
+    particles: &Particles<D>,
+) -> Result<Vec<ElasticModel>, SetupError> {
+    let invalid = |name, value, reason| {
+        Err(SetupError::InvalidParameter {
+            name,
+            value,
+            reason,
+        })
+    };
+    if !(spec.dx > 0.0 && spec.dx.is_finite()) {
+        return invalid("grid.dx", spec.dx, "must be positive and finite");
+    }
+    match params.time_step {
+        TimeStepPolicy::Fixed { dt } if !(dt > 0.0 && dt.is_finite()) => {
+            return invalid("dt", dt, "must be positive and finite");
+        }
+        TimeStepPolicy::Adaptive {
+            cfl,
+            dt_max,
+            dt_min,
+        } => {
+            if !(cfl > 0.0 && cfl.is_finite()) {
+                return invalid("cfl", cfl, "must be positive and finite");
+            }
+            if !(dt_max > 0.0 && dt_max >= dt_min) {
+                return invalid("dt_max", dt_max, "must be positive and at least dt_min");
+            }
+        }
+        TimeStepPolicy::Fixed { .. } => {}
+    }
+    if params.gravity.iter().any(|g| !g.is_finite()) {
+        return invalid("gravity", Real::NAN, "must be finite");
+    }
+    let placeholder = ElasticModel::LinearElastic(Lame {
+        mu: 0.0,
+        lambda: 0.0,
+    });
+    let mut models = Vec::with_capacity(materials.len());
+    for (k, m) in materials.iter().enumerate() {
+        let used = particles.material.iter().any(|&i| i as usize == k);
+        match m {
+            Material::Solid(s) if matches!(s.plasticity, Plasticity::None) => {
+                models.push(s.elastic);
+            }
+            _ if !used => models.push(placeholder),
+            Material::Solid(_) => {
+                return invalid(
+                    "material.plasticity",
+                    k as Real,
+                    "TLMPM supports elastic solids only (plastic flow needs reference updates)",
+                );
+            }
+            Material::Fluid(_) => {
+                return invalid("material.kind", k as Real, "TLMPM supports solids only");
+            }
+        }
+        if used && particles.def_grad.is_none() {
+            return Err(SetupError::MissingColumn {
+                material: k,
+                column: "F",
+            });
+        }
+    }
+    for (p, &material) in particles.material.iter().enumerate() {
+        let (m, v) = (particles.mass[p], particles.volume0[p]);
+        if !(m > 0.0 && m.is_finite()) {
+            return invalid("particle.mass", m, "must be positive and finite");
+        }
+        if !(v > 0.0 && v.is_finite()) {
+            return invalid("particle.volume0", v, "must be positive and finite");
+        }
+        if material as usize >= materials.len() {
+            return Err(SetupError::UnknownMaterial {
+                index: p,
+                material,
+                count: materials.len(),
+            });
+        }
+    }
+    Ok(models)
+}

@@ -1,0 +1,185 @@
+//! Explicit TLMPM: symplectic Euler on the reference grid, for comparison and cheap cases.
+
+use crate::core::{timed, Core, Failure, StageTimes};
+use crate::error::StepError;
+use crate::params::TlmpmParams;
+use crate::potential::{internal_force, weighted_stresses};
+use crate::reference::ReferenceConfig;
+use mpm_core::{
+    Diagnostics, Dim, DimOps, GridSpec, Material, Matrix, Particles, Real, SetupError, Vector,
+};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// What one accepted explicit step did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExplicitStepInfo {
+    /// The accepted time step (s).
+    pub dt: Real,
+    /// Number of dt/2 retries before it was accepted.
+    pub retries: u32,
+    /// Simulation time after the step (s).
+    pub time: Real,
+}
+
+/// Explicit total-Lagrangian MPM: P2G of momentum to the reference grid, the internal force of
+/// Eq. 3 at `F^n`, the symplectic Euler update `v_i^{n+1} = v̂_i + Δt (f_i + f^ext_i)/m_i`, then
+/// G2P with `F^{n+1} = F^n + Δt Σ_i v_i^{n+1} ⊗ ∇^X W_i(X_p)`. Stable for
+/// `Δt ≲ Δx / c` with `c` the P-wave speed.
+#[derive(Clone, Debug)]
+pub struct ExplicitTlmpm<const D: usize> {
+    core: Core<D>,
+    /// Accumulated stage timings.
+    pub stats: StageTimes,
+    stress: Vec<Matrix<D>>,
+}
+
+impl<const D: usize> ExplicitTlmpm<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    /// Builds a solver; the particles' current positions become the reference configuration,
+    /// whose weights and gradients are cached here. See [`crate::ImplicitTlmpm::new`] for the
+    /// requirements.
+    pub fn new(
+        spec: GridSpec<D>,
+        params: TlmpmParams<D>,
+        materials: Vec<Material>,
+        particles: Particles<D>,
+    ) -> Result<Self, SetupError> {
+        let t = Instant::now();
+        let core = Core::new(spec, params, materials, particles)?;
+        let stats = StageTimes {
+            reference: t.elapsed(),
+            ..StageTimes::default()
+        };
+        Ok(Self {
+            core,
+            stats,
+            stress: Vec::new(),
+        })
+    }
+
+    /// Advances one step, retrying with dt/2 on a failed guard check when the policy allows;
+    /// a failed step leaves the particles untouched.
+    pub fn step(&mut self) -> Result<ExplicitStepInfo, StepError> {
+        let t = Instant::now();
+        let dt0 = self
+            .core
+            .choose_dt(true)
+            .map_err(|f| self.core.error(f, 0.0, 0))?;
+        self.stats.time_step += t.elapsed();
+        let (stress, stats) = (&mut self.stress, &mut self.stats);
+        let ((), dt, retries) = self
+            .core
+            .run_step(dt0, |core, dt| advance(core, stress, stats, dt))?;
+        Ok(ExplicitStepInfo {
+            dt,
+            retries,
+            time: self.core.time,
+        })
+    }
+
+    /// The solver parameters.
+    pub fn params(&self) -> &TlmpmParams<D> {
+        &self.core.params
+    }
+
+    /// The material table.
+    pub fn materials(&self) -> &[Material] {
+        &self.core.materials
+    }
+
+    /// Particle state (the affine column holds `∇^X V`, 1/s).
+    pub fn particles(&self) -> &Particles<D> {
+        &self.core.particles
+    }
+
+    /// Particle velocities (m/s), e.g. to set an initial velocity field. The next step starts
+    /// with a P2G transfer of them, also with [`crate::Transfer::Persistent`].
+    pub fn velocities_mut(&mut self) -> &mut [Vector<D>] {
+        self.core.node_velocity.clear();
+        &mut self.core.particles.v
+    }
+
+    /// The cached reference configuration.
+    pub fn reference(&self) -> &ReferenceConfig<D> {
+        &self.core.reference
+    }
+
+    /// Simulation time (s).
+    pub fn time(&self) -> Real {
+        self.core.time
+    }
+
+    /// Number of accepted steps.
+    pub fn steps(&self) -> u64 {
+        self.core.steps
+    }
+
+    /// The stable step bound (s) before `dt_max`, `cfl · Δx / max_p (|v_p| + c_p)` (cfl = 1
+    /// with a fixed step, so a fixed dt above this value deserves a warning).
+    pub fn stable_dt(&self) -> Real {
+        self.core.stable_dt(true)
+    }
+
+    /// Mass, momenta and energies of the particles.
+    pub fn diagnostics(&self) -> Diagnostics<D> {
+        self.core.diagnostics()
+    }
+}
+
+/// One attempt at a step of size `dt`: the stage plan.
+fn advance<const D: usize>(
+    core: &mut Core<D>,
+    stress: &mut Vec<Matrix<D>>,
+    stats: &mut StageTimes,
+    dt: Real,
+) -> Result<(), Failure>
+where
+    Dim<D>: DimOps<D>,
+{
+    timed(&mut stats.p2g, || core.momentum_to_grid());
+    timed(&mut stats.external_forces, || core.external_forces());
+    timed(&mut stats.solve, || {
+        update_grid(core, stress, dt);
+        core.check_displacements()
+    })?;
+    timed(&mut stats.g2p, || core.grid_to_particles(dt))?;
+    timed(&mut stats.commit, || core.commit(dt));
+    Ok(())
+}
+
+/// Stage: internal forces (Eq. 3) at `F^n` and the symplectic Euler node update, stored as
+/// displacements `u_i = Δt v_i^{n+1}` (m).
+fn update_grid<const D: usize>(core: &mut Core<D>, stress: &mut Vec<Matrix<D>>, dt: Real)
+where
+    Dim<D>: DimOps<D>,
+{
+    let Core {
+        reference,
+        constraints,
+        models,
+        particles,
+        grid_velocity,
+        external,
+        displacement,
+        ..
+    } = core;
+    stress.resize(particles.len(), Matrix::<D>::zeros());
+    weighted_stresses(
+        models,
+        &particles.material,
+        &particles.volume0,
+        particles.def_grad.as_deref().unwrap_or(&[]),
+        stress,
+    );
+    let masses = reference.node_masses();
+    displacement.resize(masses.len(), Vector::<D>::zeros());
+    let stress = &*stress;
+    displacement.par_iter_mut().enumerate().for_each(|(i, u)| {
+        let (f, _) = internal_force(reference, stress, i);
+        let v = grid_velocity[i] + (f + external[i]) * (dt / masses[i]);
+        *u = constraints.displacement(i, v * dt, dt);
+    });
+}

@@ -1,0 +1,477 @@
+//! Implicit TLMPM: backward Euler on the reference grid, solved by Newton's method.
+
+use crate::assembly::HessianPattern;
+use crate::cg::{pcg, CgEnd, CgWork};
+use crate::cholesky::{CholeskyError, SparseCholesky};
+use crate::core::{timed, Core, Failure, NewtonTimes, StageTimes};
+use crate::error::StepError;
+use crate::newton::{minimize, Indefinite, NewtonInfo, NewtonWork, Objective};
+use crate::params::{ImplicitParams, LinearSolver, TlmpmParams};
+use crate::potential::{deformation, tensor_len, weighted_stresses, Potential};
+use crate::reference::ReferenceConfig;
+use mpm_core::material::Hyperelastic;
+use mpm_core::{
+    Diagnostics, Dim, DimOps, GridSpec, Location, Material, Matrix, Particles, Real, SetupError,
+    Stage, Vector, Violation,
+};
+use std::time::Instant;
+
+/// What one accepted implicit step did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImplicitStepInfo {
+    /// The accepted time step (s).
+    pub dt: Real,
+    /// Number of dt/2 retries before it was accepted.
+    pub retries: u32,
+    /// Simulation time after the step (s).
+    pub time: Real,
+    /// The Newton solve of the accepted attempt.
+    pub newton: NewtonInfo,
+}
+
+/// The assembled Newton system for the Cholesky solver: pattern, values, right-hand side and
+/// the factorisation whose symbolic part was computed once.
+#[derive(Debug)]
+struct SparseSystem {
+    pattern: HessianPattern,
+    cholesky: SparseCholesky,
+    values: Vec<Real>,
+    rhs: Vec<Real>,
+}
+
+/// Scratch memory used by the potential's evaluations and the linear solvers.
+#[derive(Debug, Default)]
+struct ObjectiveWork<const D: usize> {
+    def_grad: Vec<Matrix<D>>,
+    stress: Vec<Matrix<D>>,
+    particle: Vec<Real>,
+    magnitude: Vec<Real>,
+    tensors: Vec<Real>,
+    sparse: Option<SparseSystem>,
+    inv_diag: Vec<Vector<D>>,
+    rhs: Vec<Vector<D>>,
+    cg: CgWork<D>,
+}
+
+/// Scratch memory of the implicit solver, reused by every step.
+#[derive(Debug, Default)]
+struct Workspace<const D: usize> {
+    target: Vec<Vector<D>>,
+    newton: NewtonWork<D>,
+    objective: ObjectiveWork<D>,
+}
+
+/// Implicit total-Lagrangian MPM (diq-mpm §3.1): the elastic grid update is a backward-Euler
+/// step, found by minimising the incremental potential (see [`crate`] docs) with Newton's method.
+#[derive(Debug)]
+pub struct ImplicitTlmpm<const D: usize> {
+    core: Core<D>,
+    /// Newton and linear-solver parameters.
+    pub implicit: ImplicitParams,
+    /// Accumulated stage timings.
+    pub stats: StageTimes,
+    ws: Workspace<D>,
+}
+
+impl<const D: usize> ImplicitTlmpm<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    /// Builds a solver. The particles' current positions become the reference configuration:
+    /// their weights, gradients, node masses, the sparsity pattern and (for the Cholesky solver)
+    /// the symbolic factorisation are computed here, once. Particles need the deformation-gradient
+    /// column, materials must be elastic solids, and every stencil must fit in the grid `spec`.
+    pub fn new(
+        spec: GridSpec<D>,
+        params: TlmpmParams<D>,
+        implicit: ImplicitParams,
+        materials: Vec<Material>,
+        particles: Particles<D>,
+    ) -> Result<Self, SetupError> {
+        let t = Instant::now();
+        let core = Core::new(spec, params, materials, particles)?;
+        let mut solver = Self {
+            core,
+            implicit,
+            stats: StageTimes::default(),
+            ws: Workspace::default(),
+        };
+        if implicit.linear == LinearSolver::Cholesky {
+            solver.analyse().map_err(|e| SetupError::InvalidParameter {
+                name: "linear_solver",
+                value: Real::NAN,
+                reason: match e {
+                    CholeskyError::Backend(_) => "symbolic Cholesky analysis failed",
+                    _ => "invalid sparsity pattern",
+                },
+            })?;
+        }
+        solver.stats.reference = t.elapsed();
+        Ok(solver)
+    }
+
+    /// Builds the sparsity pattern and the symbolic factorisation (once).
+    fn analyse(&mut self) -> Result<(), CholeskyError> {
+        if self.ws.objective.sparse.is_some() {
+            return Ok(());
+        }
+        let (pattern, col_ptr, row_idx) =
+            HessianPattern::new(&self.core.reference, &self.core.constraints);
+        let n = self.core.constraints.node_of_eq.len() * D;
+        let cholesky = SparseCholesky::new(n, col_ptr, row_idx)?;
+        self.ws.objective.sparse = Some(SparseSystem {
+            values: vec![0.0; pattern.nnz()],
+            rhs: vec![0.0; n],
+            pattern,
+            cholesky,
+        });
+        Ok(())
+    }
+
+    /// Advances one step. On a failed guard check or Newton failure the step is retried with
+    /// dt/2 when the policy allows it; otherwise the error names the step and what failed. A
+    /// failed step leaves the particles untouched.
+    pub fn step(&mut self) -> Result<ImplicitStepInfo, StepError> {
+        if self.implicit.linear == LinearSolver::Cholesky {
+            self.analyse()
+                .map_err(|e| self.core.error(Failure::Newton(linear_error(e)), 0.0, 0))?;
+        }
+        let t = Instant::now();
+        let dt0 = self
+            .core
+            .choose_dt(false)
+            .map_err(|f| self.core.error(f, 0.0, 0))?;
+        self.stats.time_step += t.elapsed();
+        let (ws, stats, implicit) = (&mut self.ws, &mut self.stats, self.implicit);
+        let (newton, dt, retries) = self
+            .core
+            .run_step(dt0, |core, dt| advance(core, ws, stats, &implicit, dt))?;
+        Ok(ImplicitStepInfo {
+            dt,
+            retries,
+            time: self.core.time,
+            newton,
+        })
+    }
+
+    /// The solver parameters shared with the explicit variant.
+    pub fn params(&self) -> &TlmpmParams<D> {
+        &self.core.params
+    }
+
+    /// The material table.
+    pub fn materials(&self) -> &[Material] {
+        &self.core.materials
+    }
+
+    /// Particle state. The affine column holds `C_p = ∇^X V` (1/s), the velocity gradient with
+    /// respect to reference coordinates.
+    pub fn particles(&self) -> &Particles<D> {
+        &self.core.particles
+    }
+
+    /// Particle velocities (m/s), e.g. to set an initial velocity field. The next step starts
+    /// with a P2G transfer of them, also with [`crate::Transfer::Persistent`].
+    pub fn velocities_mut(&mut self) -> &mut [Vector<D>] {
+        self.core.node_velocity.clear();
+        &mut self.core.particles.v
+    }
+
+    /// The cached reference configuration.
+    pub fn reference(&self) -> &ReferenceConfig<D> {
+        &self.core.reference
+    }
+
+    /// Simulation time (s).
+    pub fn time(&self) -> Real {
+        self.core.time
+    }
+
+    /// Number of accepted steps.
+    pub fn steps(&self) -> u64 {
+        self.core.steps
+    }
+
+    /// Number of unknowns of the Newton system (free scalar components, partly fixed nodes
+    /// counting all `D`).
+    pub fn num_equations(&self) -> usize {
+        self.core.constraints.node_of_eq.len() * D
+    }
+
+    /// The step bound (s) of the adaptive policy before `dt_max`, `cfl · Δx / max_p |v_p|`.
+    pub fn stable_dt(&self) -> Real {
+        self.core.stable_dt(false)
+    }
+
+    /// Mass, momenta and energies of the particles.
+    pub fn diagnostics(&self) -> Diagnostics<D> {
+        self.core.diagnostics()
+    }
+}
+
+fn linear_error(e: CholeskyError) -> crate::error::NewtonError {
+    crate::error::NewtonError::LinearSolver {
+        iteration: 0,
+        message: e.to_string(),
+    }
+}
+
+/// One attempt at a step of size `dt`: the stage plan.
+fn advance<const D: usize>(
+    core: &mut Core<D>,
+    ws: &mut Workspace<D>,
+    stats: &mut StageTimes,
+    implicit: &ImplicitParams,
+    dt: Real,
+) -> Result<NewtonInfo, Failure>
+where
+    Dim<D>: DimOps<D>,
+{
+    timed(&mut stats.p2g, || core.momentum_to_grid());
+    timed(&mut stats.external_forces, || core.external_forces());
+    let newton = timed(&mut stats.solve, || {
+        solve_grid(core, ws, &mut stats.newton, implicit, dt)
+    })?;
+    timed(&mut stats.g2p, || core.grid_to_particles(dt))?;
+    timed(&mut stats.commit, || core.commit(dt));
+    Ok(newton)
+}
+
+/// Stage: Newton on the backward-Euler incremental potential for the node displacements.
+fn solve_grid<const D: usize>(
+    core: &mut Core<D>,
+    ws: &mut Workspace<D>,
+    times: &mut NewtonTimes,
+    implicit: &ImplicitParams,
+    dt: Real,
+) -> Result<NewtonInfo, Failure>
+where
+    Dim<D>: DimOps<D>,
+{
+    ws.target.clear();
+    ws.target.extend(core.grid_velocity.iter().map(|v| v * dt));
+    let Core {
+        reference,
+        constraints,
+        models,
+        particles,
+        grid_velocity,
+        external,
+        displacement,
+        ..
+    } = core;
+    // Initial guess: the explicit predictor without internal forces on the free components,
+    // the prescribed motion on the others.
+    let masses = reference.node_masses();
+    displacement.clear();
+    displacement.extend((0..masses.len()).map(|i| {
+        let free = (grid_velocity[i] + external[i] * (dt / masses[i])) * dt;
+        constraints.displacement(i, free, dt)
+    }));
+    let def_grad = particles.def_grad.as_deref().unwrap_or(&[]);
+    let mut problem = Problem {
+        pot: Potential {
+            reference,
+            constraints,
+            models,
+            material: &particles.material,
+            volume0: &particles.volume0,
+            def_grad,
+            target: &ws.target,
+            external,
+            inv_dt2: 1.0 / (dt * dt),
+        },
+        linear: implicit.linear,
+        ws: &mut ws.objective,
+        times,
+    };
+    if problem.energy(displacement).is_none() {
+        // The predictor inverts an element: start from rest on the free components.
+        for (i, u) in displacement.iter_mut().enumerate() {
+            *u = constraints.displacement(i, Vector::<D>::zeros(), dt);
+        }
+        if problem.energy(displacement).is_none() {
+            return Err(Failure::Guard(
+                Stage::GridUpdate,
+                problem.first_bad_particle(),
+            ));
+        }
+    }
+    let info = minimize(&mut problem, &implicit.newton, displacement, &mut ws.newton)
+        .map_err(Failure::Newton)?;
+    core.check_displacements()?;
+    Ok(info)
+}
+
+/// The incremental potential of one step with the scratch memory and linear solver that
+/// evaluate it.
+struct Problem<'a, const D: usize> {
+    pot: Potential<'a, D>,
+    linear: LinearSolver,
+    ws: &'a mut ObjectiveWork<D>,
+    times: &'a mut NewtonTimes,
+}
+
+impl<const D: usize> Problem<'_, D>
+where
+    Dim<D>: DimOps<D>,
+{
+    /// The lowest particle whose energy density is not finite at the last evaluated F.
+    fn first_bad_particle(&self) -> (Location, Violation, Real) {
+        let f = &self.ws.def_grad;
+        for (p, fp) in f.iter().enumerate() {
+            let j = Dim::<D>::det(fp);
+            let model = &self.pot.models[self.pot.material[p] as usize];
+            if !model.psi(fp).is_finite() {
+                return if j <= 0.0 {
+                    (Location::Particle(p), Violation::InvertedElement, j)
+                } else {
+                    (
+                        Location::Particle(p),
+                        Violation::NonFinite("energy density"),
+                        j,
+                    )
+                };
+            }
+        }
+        (
+            Location::Global,
+            Violation::NonFinite("incremental potential"),
+            Real::NAN,
+        )
+    }
+
+    fn update_deformation(&mut self, u: &[Vector<D>]) {
+        let n = self.pot.reference.num_particles();
+        self.ws.def_grad.resize(n, Matrix::<D>::zeros());
+        deformation(
+            self.pot.reference,
+            self.pot.def_grad,
+            u,
+            &mut self.ws.def_grad,
+        );
+    }
+}
+
+impl<const D: usize> Objective<D> for Problem<'_, D>
+where
+    Dim<D>: DimOps<D>,
+{
+    fn energy(&mut self, u: &[Vector<D>]) -> Option<(Real, Real)> {
+        let t = Instant::now();
+        self.update_deformation(u);
+        self.ws.particle.resize(self.ws.def_grad.len(), 0.0);
+        let e = self.pot.energy(u, &self.ws.def_grad, &mut self.ws.particle);
+        self.times.energy += t.elapsed();
+        e
+    }
+
+    fn gradient(&mut self, u: &[Vector<D>], out: &mut [Vector<D>]) -> Real {
+        let t = Instant::now();
+        self.update_deformation(u);
+        let n = self.ws.def_grad.len();
+        self.ws.stress.resize(n, Matrix::<D>::zeros());
+        weighted_stresses(
+            self.pot.models,
+            self.pot.material,
+            self.pot.volume0,
+            &self.ws.def_grad,
+            &mut self.ws.stress,
+        );
+        self.ws.magnitude.resize(u.len(), 0.0);
+        let scale = self
+            .pot
+            .gradient(u, &self.ws.stress, out, &mut self.ws.magnitude);
+        self.times.gradient += t.elapsed();
+        scale
+    }
+
+    fn direction(
+        &mut self,
+        u: &[Vector<D>],
+        r: &[Vector<D>],
+        d: &mut [Vector<D>],
+        project: bool,
+    ) -> Result<Result<u32, Indefinite>, String> {
+        let t = Instant::now();
+        self.update_deformation(u);
+        let np = self.ws.def_grad.len();
+        self.ws.tensors.resize(np * tensor_len(D), 0.0);
+        self.pot
+            .tensors(&self.ws.def_grad, project, &mut self.ws.tensors);
+        self.times.tangent += t.elapsed();
+        let ObjectiveWork {
+            stress,
+            tensors,
+            sparse,
+            inv_diag,
+            rhs,
+            cg,
+            ..
+        } = &mut *self.ws;
+        let pot = &self.pot;
+        match self.linear {
+            LinearSolver::Cholesky => {
+                let Some(sys) = sparse.as_mut() else {
+                    return Err("sparse system not analysed".into());
+                };
+                let t = Instant::now();
+                sys.pattern.assemble(pot, tensors, &mut sys.values);
+                self.times.assembly += t.elapsed();
+                let t = Instant::now();
+                let factor = sys.cholesky.factorize(&sys.values);
+                self.times.factorization += t.elapsed();
+                match factor {
+                    Ok(()) => {}
+                    Err(CholeskyError::NotPositiveDefinite { .. }) => return Ok(Err(Indefinite)),
+                    Err(e) => return Err(e.to_string()),
+                }
+                let t = Instant::now();
+                let node_of_eq = &pot.constraints.node_of_eq;
+                for (e, &j) in node_of_eq.iter().enumerate() {
+                    for a in 0..D {
+                        sys.rhs[e * D + a] = -r[j as usize][a];
+                    }
+                }
+                sys.cholesky
+                    .solve_in_place(&mut sys.rhs)
+                    .map_err(|e| e.to_string())?;
+                d.iter_mut().for_each(|x| *x = Vector::<D>::zeros());
+                for (e, &j) in node_of_eq.iter().enumerate() {
+                    let j = j as usize;
+                    let x = Vector::<D>::from_fn(|a, _| sys.rhs[e * D + a]);
+                    d[j] = x.component_mul(&pot.constraints.mask[j]);
+                }
+                self.times.linear_solve += t.elapsed();
+                Ok(Ok(0))
+            }
+            LinearSolver::Cg {
+                max_iterations,
+                rel_tol,
+            } => {
+                let t = Instant::now();
+                inv_diag.resize(u.len(), Vector::<D>::zeros());
+                pot.inverse_diagonal(tensors, inv_diag);
+                rhs.clear();
+                rhs.extend(r.iter().map(|x| -x));
+                stress.resize(np, Matrix::<D>::zeros());
+                let (end, iterations) = pcg(
+                    |x, y| pot.apply_hessian(tensors, x, stress, y),
+                    inv_diag,
+                    rhs,
+                    d,
+                    (rel_tol, max_iterations),
+                    cg,
+                );
+                self.times.linear_solve += t.elapsed();
+                Ok(match end {
+                    CgEnd::NegativeCurvature => Err(Indefinite),
+                    CgEnd::Converged | CgEnd::IterationCap => Ok(iterations),
+                })
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests;

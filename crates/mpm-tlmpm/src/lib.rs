@@ -1,0 +1,59 @@
+//! Total-Lagrangian MPM (TLMPM, diq-mpm §3): implicit (backward Euler, Newton) and explicit
+//! (symplectic Euler) solvers whose grid is the *reference* configuration.
+//!
+//! All stresses, forces and time integration are computed on the initial grid, so particles
+//! never cross cells: the B-spline weights `W_i(X_p)` and reference gradients `∇^X W_i(X_p)` are
+//! computed once ([`ReferenceConfig`]), together with the node masses, the node–particle
+//! connectivity, the sparsity pattern of the Newton matrix and its symbolic Cholesky
+//! factorisation ([`SparseCholesky`]).
+//!
+//! The internal force is Eq. 3, `f_i = −Σ_p V⁰_p P(F_p) ∇^X W_i(X_p)`. The deformation gradient
+//! is updated in incremental form, `F_p^{n+1} = F_p^n + Σ_i u_i ⊗ ∇^X W_i(X_p)` with the node
+//! displacements `u_i = Δt v_i^{n+1}` (diq-mpm §5.1 step 5). The particles then carry the whole
+//! state (x, v, F, `C = ∇^X V`) and the grid is scratch rebuilt by P2G every step, which keeps
+//! checkpoints to particle columns, lets contact forces (Eq. 4) enter as nodal forces, and leaves
+//! room for A-ULMPM reference updates (§5.4), which reset `X` and restart `F` from the new
+//! reference. Since `F_p` is affine in `u`, the backward-Euler incremental potential
+//!
+//! `E(u) = Σ_i m_i/(2Δt²) ‖u_i − Δt v̂_i‖² + Σ_p V⁰_p ψ(F_p(u)) − Σ_i f^ext_i · u_i`
+//!
+//! (the brief's `E(x)` with `x_i = x_i^n + u_i`) has an exact, consistent Hessian built from
+//! mpm-core's `dP(F)[δF]`; Newton's method ([`NewtonParams`]) minimises it with a capped
+//! backtracking line search and either a sparse Cholesky or a Jacobi-preconditioned CG solve
+//! ([`LinearSolver`]).
+//!
+//! A step is a short list of named stages, each timed in [`StageTimes`]:
+//! momentum to the reference grid (P2G) → external forces → grid solve (Newton, or the explicit
+//! update) → G2P with the F update and guard checks → commit. Every parallel loop writes
+//! per-particle or per-node results and every sum runs in a fixed order, so results are bitwise
+//! identical for any number of rayon threads.
+//!
+//! Units are SI (m, s, kg, Pa); in 2D volumes are areas (m²) and densities kg/m².
+
+mod assembly;
+mod cg;
+mod cholesky;
+mod contact;
+mod core;
+mod error;
+mod explicit;
+mod implicit;
+mod newton;
+mod par;
+mod params;
+mod potential;
+mod reference;
+mod transfer;
+
+pub use crate::core::{NewtonTimes, StageTimes};
+pub use cholesky::{CholeskyError, SparseCholesky};
+pub use contact::{ContactInput, ContactRadius, ContactStats, Obstacle, ParticleContact};
+pub use error::{NewtonError, StepError};
+pub use explicit::{ExplicitStepInfo, ExplicitTlmpm};
+pub use implicit::{ImplicitStepInfo, ImplicitTlmpm};
+pub use newton::{fitted_order, NewtonInfo};
+pub use params::{
+    FixedRegion, ImplicitParams, LineSearch, LinearSolver, NewtonParams, SpdProjection,
+    TlmpmParams, Transfer,
+};
+pub use reference::ReferenceConfig;

@@ -1,0 +1,253 @@
+//! Newton's method with a capped backtracking line search on an incremental potential.
+
+use crate::error::NewtonError;
+use crate::params::{NewtonParams, SpdProjection};
+use mpm_core::{Real, Vector};
+use serde::Serialize;
+
+/// Relative size of an energy change below which energies are compared at round-off level; the
+/// line search then accepts a step on a decrease of the residual instead.
+const ENERGY_ROUNDOFF: Real = 1e-10;
+
+/// What one Newton solve did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct NewtonInfo {
+    /// Newton iterations (linear solves accepted).
+    pub iterations: u32,
+    /// Residual norms `‖∇E‖₂` (N): the initial guess first, then one per iteration.
+    pub residuals: Vec<Real>,
+    /// Tolerance the last residual met (N): `max(abs_tol + rel_tol · r₀, roundoff · scale)`.
+    pub tolerance: Real,
+    /// Line-search step halvings over all iterations.
+    pub halvings: u32,
+    /// CG iterations over all Newton iterations (0 with the Cholesky solver).
+    pub linear_iterations: u32,
+    /// Iterations that used the SPD-projected tangent.
+    pub projected_iterations: u32,
+}
+
+/// Least-squares estimate of the convergence order `q` in `r_{k+1} ≈ C r_k^q` from consecutive
+/// residuals (at least three, all positive); `None` otherwise.
+pub fn fitted_order(residuals: &[Real]) -> Option<Real> {
+    if residuals.len() < 3 || residuals.iter().any(|&r| r <= 0.0 || !r.is_finite()) {
+        return None;
+    }
+    let pts: Vec<(Real, Real)> = residuals
+        .windows(2)
+        .map(|w| (w[0].ln(), w[1].ln()))
+        .collect();
+    let n = pts.len() as Real;
+    let (mx, my) = pts
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
+    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
+        (a + (x - mx) * (y - my), b + (x - mx) * (x - mx))
+    });
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// The tangent was not positive definite.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Indefinite;
+
+/// A smooth potential over node vectors, with a Newton direction.
+pub(crate) trait Objective<const D: usize> {
+    /// `E(u)` (J) and the magnitude scale of its terms (J), `None` when not finite.
+    fn energy(&mut self, u: &[Vector<D>]) -> Option<(Real, Real)>;
+    /// `∇E(u)` (N) into `out`, zero on prescribed components; returns the force scale (N).
+    fn gradient(&mut self, u: &[Vector<D>], out: &mut [Vector<D>]) -> Real;
+    /// Solves `H(u) d = −r`, zero on prescribed components, with the SPD-projected tangent when
+    /// `project`. Returns the linear iterations, or `Ok(Err(Indefinite))` when the tangent is not
+    /// positive definite.
+    fn direction(
+        &mut self,
+        u: &[Vector<D>],
+        r: &[Vector<D>],
+        d: &mut [Vector<D>],
+        project: bool,
+    ) -> Result<Result<u32, Indefinite>, String>;
+}
+
+/// Scratch vectors of the Newton loop.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct NewtonWork<const D: usize> {
+    r: Vec<Vector<D>>,
+    d: Vec<Vector<D>>,
+    trial: Vec<Vector<D>>,
+    r_trial: Vec<Vector<D>>,
+}
+
+fn dot<const D: usize>(a: &[Vector<D>], b: &[Vector<D>]) -> Real {
+    a.iter().zip(b).map(|(x, y)| x.dot(y)).sum()
+}
+
+/// Minimises `obj` from `u` (overwritten with the solution).
+pub(crate) fn minimize<const D: usize>(
+    obj: &mut impl Objective<D>,
+    params: &NewtonParams,
+    u: &mut Vec<Vector<D>>,
+    w: &mut NewtonWork<D>,
+) -> Result<NewtonInfo, NewtonError> {
+    let n = u.len();
+    for v in [&mut w.r, &mut w.d, &mut w.trial, &mut w.r_trial] {
+        v.clear();
+        v.resize(n, Vector::<D>::zeros());
+    }
+    let mut info = NewtonInfo::default();
+    let Some(mut energy) = obj.energy(u) else {
+        return Err(NewtonError::NonFiniteStart);
+    };
+    let scale = obj.gradient(u, &mut w.r);
+    let mut residual = dot(&w.r, &w.r).sqrt();
+    let initial = residual;
+    let tolerance = (params.abs_tol + params.rel_tol * initial).max(params.roundoff * scale);
+    info.tolerance = tolerance;
+    info.residuals.push(residual);
+    let ls = params.line_search;
+    let mut iteration = 0;
+    loop {
+        if residual <= tolerance {
+            return Ok(info);
+        }
+        if iteration == params.max_iterations {
+            return Err(NewtonError::NotConverged {
+                iterations: iteration,
+                residual,
+                initial,
+                tolerance,
+            });
+        }
+        // Newton direction, with the projected tangent when the exact one fails.
+        let mut project = params.projection == SpdProjection::Always;
+        let slope = loop {
+            let outcome = obj
+                .direction(u, &w.r, &mut w.d, project)
+                .map_err(|message| NewtonError::LinearSolver { iteration, message })?;
+            if let Ok(lin) = outcome {
+                info.linear_iterations += lin;
+                let s = dot(&w.r, &w.d);
+                if s < 0.0 {
+                    break s;
+                }
+            }
+            if project || params.projection == SpdProjection::Never {
+                return Err(NewtonError::IndefiniteTangent { iteration });
+            }
+            project = true;
+        };
+        if project {
+            info.projected_iterations += 1;
+        }
+        // Capped backtracking line search.
+        let mut alpha = 1.0;
+        let mut accepted = None;
+        for _ in 0..=ls.max_halvings {
+            for ((t, x), d) in w.trial.iter_mut().zip(u.iter()).zip(&w.d) {
+                *t = x + d * alpha;
+            }
+            if let Some(e) = obj.energy(&w.trial) {
+                if e.0 <= energy.0 + ls.armijo * alpha * slope {
+                    accepted = Some((e, false));
+                } else if (alpha * slope).abs() <= ENERGY_ROUNDOFF * e.1.max(energy.1) {
+                    obj.gradient(&w.trial, &mut w.r_trial);
+                    if dot(&w.r_trial, &w.r_trial).sqrt() < residual {
+                        accepted = Some((e, true));
+                    }
+                }
+            }
+            if accepted.is_some() {
+                break;
+            }
+            alpha *= 0.5;
+            info.halvings += 1;
+        }
+        let Some((e, have_gradient)) = accepted else {
+            return Err(NewtonError::LineSearchFailed {
+                iteration,
+                halvings: ls.max_halvings,
+                residual,
+            });
+        };
+        std::mem::swap(u, &mut w.trial);
+        energy = e;
+        if have_gradient {
+            std::mem::swap(&mut w.r, &mut w.r_trial);
+        } else {
+            obj.gradient(u, &mut w.r);
+        }
+        residual = dot(&w.r, &w.r).sqrt();
+        iteration += 1;
+        info.iterations = iteration;
+        info.residuals.push(residual);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `E(u) = Σ (e^y − y)` with `y = u − c` per component: convex, minimum at `u = c`, and the
+    /// full Newton step overshoots far from it.
+    struct Convex {
+        c: Vec<Vector<2>>,
+    }
+
+    impl Objective<2> for Convex {
+        fn energy(&mut self, u: &[Vector<2>]) -> Option<(Real, Real)> {
+            let e: Real = u
+                .iter()
+                .zip(&self.c)
+                .map(|(x, c)| (x - c).map(|y| y.exp() - y).sum())
+                .sum();
+            e.is_finite().then_some((e, e))
+        }
+        fn gradient(&mut self, u: &[Vector<2>], out: &mut [Vector<2>]) -> Real {
+            for ((o, x), c) in out.iter_mut().zip(u).zip(&self.c) {
+                *o = (x - c).map(|y| y.exp() - 1.0);
+            }
+            1.0
+        }
+        fn direction(
+            &mut self,
+            u: &[Vector<2>],
+            r: &[Vector<2>],
+            d: &mut [Vector<2>],
+            _project: bool,
+        ) -> Result<Result<u32, Indefinite>, String> {
+            for (((d, x), c), r) in d.iter_mut().zip(u).zip(&self.c).zip(r) {
+                *d = -r.component_div(&(x - c).map(Real::exp));
+            }
+            Ok(Ok(0))
+        }
+    }
+
+    #[test]
+    fn converges_quadratically_with_line_search() {
+        let mut obj = Convex {
+            c: (0..10).map(|i| Vector::<2>::new(i as Real, -3.0)).collect(),
+        };
+        let mut u = vec![Vector::<2>::zeros(); 10];
+        let params = NewtonParams {
+            abs_tol: 1e-13,
+            rel_tol: 0.0,
+            ..Default::default()
+        };
+        let info = minimize(&mut obj, &params, &mut u, &mut NewtonWork::default()).unwrap();
+        assert!(info.halvings > 0, "far start needs damping");
+        for (x, c) in u.iter().zip(&obj.c) {
+            assert!((x - c).norm() < 1e-12);
+        }
+        let r = &info.residuals;
+        let tail = &r[r.len() - 4..r.len() - 1];
+        assert!(fitted_order(tail).unwrap() > 1.8, "{r:?}");
+    }
+
+    #[test]
+    fn fitted_order_of_exact_sequences() {
+        let quadratic: Vec<Real> = (0..5).map(|k| 10f64.powi(-(1 << k))).collect();
+        assert!((fitted_order(&quadratic).unwrap() - 2.0).abs() < 1e-12);
+        let linear: Vec<Real> = (0..5).map(|k| 0.5f64.powi(k)).collect();
+        assert!((fitted_order(&linear).unwrap() - 1.0).abs() < 1e-12);
+        assert_eq!(fitted_order(&[1.0, 0.1]), None);
+    }
+}

@@ -1,0 +1,179 @@
+//! Parameters of the TLMPM solvers.
+
+use mpm_core::{Kernel, OnInstability, Real, TimeStepPolicy, Vector};
+use serde::{Deserialize, Serialize};
+
+/// Particle–grid velocity transfer on the reference grid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Transfer {
+    /// APIC on the reference grid: particles carry `C_p = ∇^X V` (1/s), the velocity gradient
+    /// with respect to reference coordinates, and transfer `m_p (v_p + C_p (X_i − X_p))`. Affine
+    /// velocity fields of the reference coordinates survive a round trip exactly.
+    #[default]
+    Apic,
+    /// PIC: only `m_p v_p` is transferred (dissipative).
+    Pic,
+    /// Node velocities persist from step to step and P2G (APIC form) runs only on the first
+    /// step or after the particle velocities were changed from outside. The reference grid is
+    /// Lagrangian, so this is a B-spline finite-element method with particle quadrature: it has
+    /// no transfer dissipation, which APIC and PIC incur on every round trip for velocity fields
+    /// that are not affine, for example next to prescribed nodes, in an amount set by the number
+    /// of steps rather than by dt.
+    Persistent,
+}
+
+/// A Dirichlet condition: every active grid node whose *reference* position lies in the box
+/// `[min, max]` (inclusive, with a tolerance of 10⁻⁹ Δx) has the components flagged in `axes`
+/// prescribed to move at `velocity`. Nodes are fixed in the reference configuration, so a
+/// clamped end stays clamped however far the body deforms.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedRegion<const D: usize> {
+    /// Lower corner of the box in the reference configuration (m).
+    pub min: Vector<D>,
+    /// Upper corner of the box in the reference configuration (m).
+    pub max: Vector<D>,
+    /// Which velocity components are prescribed (all for a clamp, one for a roller).
+    pub axes: [bool; D],
+    /// Prescribed velocity (m/s); only the flagged components are used.
+    pub velocity: Vector<D>,
+}
+
+impl<const D: usize> FixedRegion<D> {
+    /// A clamp: all components of the nodes in `[min, max]` (m) held at rest.
+    pub fn clamp(min: Vector<D>, max: Vector<D>) -> Self {
+        Self {
+            min,
+            max,
+            axes: [true; D],
+            velocity: Vector::<D>::zeros(),
+        }
+    }
+}
+
+/// Parameters shared by the implicit and the explicit TLMPM solvers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TlmpmParams<const D: usize> {
+    /// B-spline kernel of the reference grid (quadratic by default).
+    pub kernel: Kernel,
+    /// Particle–grid velocity transfer.
+    pub transfer: Transfer,
+    /// Gravitational acceleration (m/s²).
+    pub gravity: Vector<D>,
+    /// Time-step policy. The implicit solver's adaptive bound is `cfl · Δx / max_p |v_p|` (no
+    /// wave-speed limit); the explicit solver's is `cfl · Δx / max_p (|v_p| + c_p)`.
+    pub time_step: TimeStepPolicy,
+    /// Reaction to a failed guard check or a failed Newton solve.
+    pub on_instability: OnInstability,
+    /// Dirichlet regions on the reference grid.
+    pub fixed: Vec<FixedRegion<D>>,
+}
+
+impl<const D: usize> Default for TlmpmParams<D> {
+    fn default() -> Self {
+        Self {
+            kernel: Kernel::Quadratic,
+            transfer: Transfer::Apic,
+            gravity: Vector::<D>::zeros(),
+            time_step: TimeStepPolicy::default(),
+            on_instability: OnInstability::Abort,
+            fixed: Vec::new(),
+        }
+    }
+}
+
+/// When the per-particle elasticity tensor `∂P/∂F` (a `D² × D²` matrix) is projected onto the
+/// positive semi-definite cone by clamping its negative eigenvalues to zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpdProjection {
+    /// Never: the exact (consistent) tangent; an indefinite system is an error.
+    Never,
+    /// Always: a positive definite tangent every iteration (linear convergence near the
+    /// solution when the exact tensor is indefinite there).
+    Always,
+    /// Use the exact tangent, and redo an iteration with the projected one when the exact
+    /// system is not positive definite (Cholesky meets a non-positive pivot, CG meets negative
+    /// curvature, or the direction is not a descent direction). Keeps quadratic convergence
+    /// where the exact tangent is SPD.
+    #[default]
+    OnFailure,
+}
+
+/// Backtracking line search on the incremental potential.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LineSearch {
+    /// Maximum number of step halvings per Newton iteration.
+    pub max_halvings: u32,
+    /// Armijo sufficient-decrease constant `c` in `E(u + αd) ≤ E(u) + c α ∇E·d` (dimensionless).
+    pub armijo: Real,
+}
+
+impl Default for LineSearch {
+    fn default() -> Self {
+        Self {
+            max_halvings: 20,
+            armijo: 1e-4,
+        }
+    }
+}
+
+/// Newton's method on the backward-Euler incremental potential.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NewtonParams {
+    /// Maximum number of Newton iterations per step.
+    pub max_iterations: u32,
+    /// Absolute tolerance on the residual norm `‖∇E‖₂` (N).
+    pub abs_tol: Real,
+    /// Relative tolerance on `‖∇E‖₂ / ‖∇E(u₀)‖₂` (dimensionless).
+    pub rel_tol: Real,
+    /// Round-off floor (dimensionless): the iteration also stops once `‖∇E‖₂` falls below this
+    /// fraction of the force scale `‖Σ |force terms|‖₂` (inertia, external and internal forces
+    /// summed in magnitude per node), where the residual is dominated by rounding errors.
+    pub roundoff: Real,
+    /// Line search.
+    pub line_search: LineSearch,
+    /// Positive-definiteness treatment of the tangent.
+    pub projection: SpdProjection,
+}
+
+impl Default for NewtonParams {
+    fn default() -> Self {
+        Self {
+            max_iterations: 30,
+            abs_tol: 1e-10,
+            rel_tol: 1e-8,
+            roundoff: 1e-13,
+            line_search: LineSearch::default(),
+            projection: SpdProjection::OnFailure,
+        }
+    }
+}
+
+/// Linear solver for the Newton system `H d = −∇E`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "solver", rename_all = "snake_case")]
+pub enum LinearSolver {
+    /// Sparse Cholesky (faer): the symbolic analysis (fill-reducing ordering and elimination
+    /// tree) is computed once from the fixed reference connectivity, the numeric factorisation
+    /// every Newton iteration.
+    #[default]
+    Cholesky,
+    /// Matrix-free conjugate gradients with a Jacobi preconditioner, started from zero.
+    Cg {
+        /// Iteration cap per Newton iteration.
+        max_iterations: u32,
+        /// Relative tolerance on the preconditioned-CG residual `‖H d + ∇E‖₂ / ‖∇E‖₂`
+        /// (dimensionless).
+        rel_tol: Real,
+    },
+}
+
+/// Parameters of the implicit solver only.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ImplicitParams {
+    /// Newton's method.
+    pub newton: NewtonParams,
+    /// Linear solver.
+    pub linear: LinearSolver,
+}

@@ -1,0 +1,281 @@
+//! The backward-Euler incremental potential of implicit TLMPM and its derivatives.
+//!
+//! Unknowns are the node displacements of the step, `u_i = x_i^{n+1} − x_i^n = Δt v_i^{n+1}` (m),
+//! on the active nodes of the reference grid. The deformation gradient is affine in them
+//! (incremental form of diq-mpm §5.1 step 5, `F^{n+1} = F^n + Δt ∇^X V`):
+//!
+//! `F_p(u) = F_p^n + Σ_i u_i ⊗ ∇^X W_i(X_p)`,
+//!
+//! and the potential is
+//!
+//! `E(u) = Σ_i m_i/(2Δt²) ‖u_i − û_i‖² + Σ_p V⁰_p ψ(F_p(u)) − Σ_i f^ext_i · u_i`
+//!
+//! with `û_i = Δt v̂_i` the inertial prediction from the transferred momentum and `f^ext`
+//! gravity (and any other external nodal force). Its gradient is
+//! `∂E/∂u_i = m_i/Δt² (u_i − û_i) − f_i − f^ext_i` with the internal force of Eq. 3,
+//! `f_i = −Σ_p V⁰_p P(F_p) ∇^X W_i(X_p)`, and its Hessian is
+//! `M/Δt² + K`, `K_ij = Σ_p V⁰_p (∇^X W_i ⊗ I) : ∂P/∂F(F_p) : (∇^X W_j ⊗ I)` built from mpm-core's
+//! `dP(F)[δF]`. Since F is affine in u the tangent is exact, which is what Newton's quadratic
+//! convergence needs.
+//!
+//! Per-particle work runs in parallel into per-particle buffers; every per-node sum is a gather
+//! over the node's particles in ascending order and every scalar sum is serial, so all results are
+//! bitwise independent of the thread count.
+
+use crate::reference::{Constraints, ReferenceConfig, NONE};
+use mpm_core::material::{ElasticModel, Hyperelastic};
+use mpm_core::{Dim, DimOps, Matrix, Real, Vector};
+use nalgebra::SMatrix;
+use rayon::prelude::*;
+
+/// The data that defines one step's incremental potential.
+pub(crate) struct Potential<'a, const D: usize> {
+    /// Cached stencils and node masses.
+    pub reference: &'a ReferenceConfig<D>,
+    /// Dirichlet data.
+    pub constraints: &'a Constraints<D>,
+    /// Elastic model per material index.
+    pub models: &'a [ElasticModel],
+    /// Material index per particle.
+    pub material: &'a [u32],
+    /// Initial particle volumes V⁰ (m^D).
+    pub volume0: &'a [Real],
+    /// Deformation gradients at the start of the step.
+    pub def_grad: &'a [Matrix<D>],
+    /// Inertial prediction û_i = Δt v̂_i (m).
+    pub target: &'a [Vector<D>],
+    /// External nodal forces (N).
+    pub external: &'a [Vector<D>],
+    /// 1/Δt² (1/s²).
+    pub inv_dt2: Real,
+}
+
+/// Number of entries of one particle's elasticity tensor, `D⁴`.
+pub(crate) const fn tensor_len(d: usize) -> usize {
+    d * d * d * d
+}
+
+/// `F_p = F_p^n + Σ_i u_i ⊗ ∇^X W_i(X_p)` for every particle.
+pub(crate) fn deformation<const D: usize>(
+    reference: &ReferenceConfig<D>,
+    def_grad: &[Matrix<D>],
+    u: &[Vector<D>],
+    out: &mut [Matrix<D>],
+) {
+    out.par_iter_mut().enumerate().for_each(|(p, f)| {
+        let (nodes, _, grads) = reference.slots(p);
+        *f = def_grad[p];
+        for (&i, g) in nodes.iter().zip(grads) {
+            if i != NONE {
+                *f += u[i as usize] * g.transpose();
+            }
+        }
+    });
+}
+
+/// `V⁰_p P(F_p)` (N·m, i.e. Pa·m^D) for every particle.
+pub(crate) fn weighted_stresses<const D: usize>(
+    models: &[ElasticModel],
+    material: &[u32],
+    volume0: &[Real],
+    f: &[Matrix<D>],
+    out: &mut [Matrix<D>],
+) where
+    Dim<D>: DimOps<D>,
+{
+    out.par_iter_mut().enumerate().for_each(|(p, s)| {
+        *s = models[material[p] as usize].pk1(&f[p]) * volume0[p];
+    });
+}
+
+/// Internal force of Eq. 3 on active node `i`, `f_i = −Σ_p V⁰_p P(F_p) ∇^X W_i(X_p)` (N), from
+/// the weighted stresses; also returns `Σ_p ‖V⁰_p P_p ∇W_ip‖` (N), the magnitude scale.
+#[inline]
+pub(crate) fn internal_force<const D: usize>(
+    reference: &ReferenceConfig<D>,
+    stress: &[Matrix<D>],
+    i: usize,
+) -> (Vector<D>, Real) {
+    let (mut f, mut mag) = (Vector::<D>::zeros(), 0.0);
+    for &(p, k) in reference.incidence(i) {
+        let t = stress[p as usize] * reference.slot(p as usize, k as usize).1;
+        f -= t;
+        mag += t.norm();
+    }
+    (f, mag)
+}
+
+impl<const D: usize> Potential<'_, D>
+where
+    Dim<D>: DimOps<D>,
+{
+    /// `E(u)` (J) given `f = F(u)`, with the sum of the magnitudes of its terms (J) as the scale
+    /// for round-off decisions. `None` when the potential is not finite (e.g. J ≤ 0 for a model
+    /// undefined there). `scratch` holds one value per particle.
+    pub fn energy(
+        &self,
+        u: &[Vector<D>],
+        f: &[Matrix<D>],
+        scratch: &mut [Real],
+    ) -> Option<(Real, Real)> {
+        scratch.par_iter_mut().enumerate().for_each(|(p, e)| {
+            *e = self.volume0[p] * self.models[self.material[p] as usize].psi(&f[p]);
+        });
+        let (mut elastic, mut elastic_abs) = (0.0, 0.0);
+        for e in scratch.iter() {
+            elastic += e;
+            elastic_abs += e.abs();
+        }
+        let (mut inertia, mut work, mut work_abs) = (0.0, 0.0, 0.0);
+        let masses = self.reference.node_masses();
+        for i in 0..u.len() {
+            inertia += 0.5 * masses[i] * self.inv_dt2 * (u[i] - self.target[i]).norm_squared();
+            let w = self.external[i].dot(&u[i]);
+            work += w;
+            work_abs += w.abs();
+        }
+        let value = inertia + elastic - work;
+        value
+            .is_finite()
+            .then_some((value, inertia + elastic_abs + work_abs))
+    }
+
+    /// `∇E(u)` (N) into `out`, zero on prescribed components, from the weighted stresses of
+    /// `F(u)`. Returns the force scale `‖Σ |terms|‖₂` (N); `magnitude` holds one value per node.
+    pub fn gradient(
+        &self,
+        u: &[Vector<D>],
+        stress: &[Matrix<D>],
+        out: &mut [Vector<D>],
+        magnitude: &mut [Real],
+    ) -> Real {
+        let masses = self.reference.node_masses();
+        out.par_iter_mut()
+            .zip(magnitude.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (r, mag))| {
+                let inertia = (u[i] - self.target[i]) * (masses[i] * self.inv_dt2);
+                let (fint, fmag) = internal_force(self.reference, stress, i);
+                *r = (inertia - fint - self.external[i]).component_mul(&self.constraints.mask[i]);
+                *mag = inertia.norm() + self.external[i].norm() + fmag;
+            });
+        magnitude.iter().map(|m| m * m).sum::<Real>().sqrt()
+    }
+
+    /// Per-particle elasticity tensors `V⁰_p ∂P/∂F(F_p)` as `D² × D²` row-major blocks
+    /// (`row = a·D + β` for `δP_aβ`, `col = b·D + δ` for `δF_bδ`), symmetrised, and projected to
+    /// positive semi-definite when `project`.
+    pub fn tensors(&self, f: &[Matrix<D>], project: bool, out: &mut [Real]) {
+        let n2 = D * D;
+        out.par_chunks_mut(tensor_len(D))
+            .enumerate()
+            .for_each(|(p, a)| {
+                let model = &self.models[self.material[p] as usize];
+                for col in 0..n2 {
+                    let mut e = Matrix::<D>::zeros();
+                    e[(col / D, col % D)] = 1.0;
+                    let dp = model.dpk1(&f[p], &e) * self.volume0[p];
+                    for row in 0..n2 {
+                        a[row * n2 + col] = dp[(row / D, row % D)];
+                    }
+                }
+                for row in 0..n2 {
+                    for col in row + 1..n2 {
+                        let s = 0.5 * (a[row * n2 + col] + a[col * n2 + row]);
+                        a[row * n2 + col] = s;
+                        a[col * n2 + row] = s;
+                    }
+                }
+                if project {
+                    project_psd(a, n2);
+                }
+            });
+    }
+
+    /// Matrix-free Hessian product `y = (M/Δt² + K) x` restricted to the free components
+    /// (prescribed components of `y` are zero). `scratch` holds one matrix per particle.
+    pub fn apply_hessian(
+        &self,
+        tensors: &[Real],
+        x: &[Vector<D>],
+        scratch: &mut [Matrix<D>],
+        y: &mut [Vector<D>],
+    ) {
+        let n2 = D * D;
+        scratch.par_iter_mut().enumerate().for_each(|(p, dp)| {
+            let (nodes, _, grads) = self.reference.slots(p);
+            let mut df = Matrix::<D>::zeros();
+            for (&i, g) in nodes.iter().zip(grads) {
+                if i != NONE {
+                    df += x[i as usize] * g.transpose();
+                }
+            }
+            let a = &tensors[p * tensor_len(D)..(p + 1) * tensor_len(D)];
+            *dp = Matrix::<D>::from_fn(|r0, r1| {
+                let row = &a[(r0 * D + r1) * n2..(r0 * D + r1 + 1) * n2];
+                (0..n2).map(|c| row[c] * df[(c / D, c % D)]).sum()
+            });
+        });
+        let masses = self.reference.node_masses();
+        y.par_iter_mut().enumerate().for_each(|(i, yi)| {
+            let mut acc = x[i] * (masses[i] * self.inv_dt2);
+            for &(p, k) in self.reference.incidence(i) {
+                acc += scratch[p as usize] * self.reference.slot(p as usize, k as usize).1;
+            }
+            *yi = acc.component_mul(&self.constraints.mask[i]);
+        });
+    }
+
+    /// Inverse of the Hessian diagonal (s²/kg) on free components, 0 on prescribed ones (the
+    /// Jacobi preconditioner).
+    pub fn inverse_diagonal(&self, tensors: &[Real], out: &mut [Vector<D>]) {
+        let n2 = D * D;
+        let masses = self.reference.node_masses();
+        out.par_iter_mut().enumerate().for_each(|(i, di)| {
+            let mut d = Vector::<D>::from_element(masses[i] * self.inv_dt2);
+            for &(p, k) in self.reference.incidence(i) {
+                let a = &tensors[p as usize * tensor_len(D)..];
+                let g = self.reference.slot(p as usize, k as usize).1;
+                for c in 0..D {
+                    for b in 0..D {
+                        for e in 0..D {
+                            d[c] += g[b] * a[(c * D + b) * n2 + c * D + e] * g[e];
+                        }
+                    }
+                }
+            }
+            *di = Vector::<D>::from_fn(|c, _| {
+                if self.constraints.is_free(i, c) && d[c] > 0.0 {
+                    1.0 / d[c]
+                } else {
+                    0.0
+                }
+            });
+        });
+    }
+}
+
+/// Replaces the symmetric `n × n` row-major matrix `a` (n = 4 or 9) by its projection onto the
+/// positive semi-definite cone (negative eigenvalues clamped to zero).
+fn project_psd(a: &mut [Real], n: usize) {
+    macro_rules! project {
+        ($n:literal) => {{
+            let eig = SMatrix::<Real, $n, $n>::from_row_slice(&a[..$n * $n]).symmetric_eigen();
+            if eig.eigenvalues.iter().any(|&l| l < 0.0) {
+                let l = eig.eigenvalues.map(|l| l.max(0.0));
+                let q = eig.eigenvectors;
+                let m = q * SMatrix::<Real, $n, $n>::from_diagonal(&l) * q.transpose();
+                for r in 0..$n {
+                    for c in 0..$n {
+                        a[r * $n + c] = 0.5 * (m[(r, c)] + m[(c, r)]);
+                    }
+                }
+            }
+        }};
+    }
+    if n == 4 {
+        project!(4)
+    } else {
+        project!(9)
+    }
+}

@@ -1,0 +1,368 @@
+//! The reference configuration: reference particle positions `X_p` on the initial grid, with the
+//! B-spline weights `W_i(X_p)` and reference gradients `∇^X W_i(X_p)` computed once and cached
+//! (diq-mpm §3.1). Because TLMPM never moves particles relative to this grid, the particle–node
+//! connectivity, the lumped node masses `m_i = Σ_p W_i(X_p) m_p` and the sparsity pattern of the
+//! tangent are fixed for the whole run.
+//!
+//! Only *active* nodes, those with positive weight for some particle, are stored; they are
+//! numbered in grid order. A stencil node with zero weight (a particle on the edge of a spline's
+//! support) is left out together with its gradient, which is zero there for the quadratic and
+//! cubic splines; for the linear kernel this happens only for particles exactly on a grid line,
+//! where the tent function has no derivative.
+
+use crate::params::FixedRegion;
+use mpm_core::{GridSpec, Kernel, Real, SetupError, Stencil, Vector};
+
+/// Marks a stencil slot without an active node, or a node without equations.
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// Cached reference-configuration data of one TLMPM body set.
+#[derive(Clone, Debug)]
+pub struct ReferenceConfig<const D: usize> {
+    spec: GridSpec<D>,
+    kernel: Kernel,
+    slots: usize,
+    positions: Vec<Vector<D>>,
+    slot_node: Vec<u32>,
+    slot_weight: Vec<Real>,
+    slot_gradient: Vec<Vector<D>>,
+    node_grid: Vec<usize>,
+    node_position: Vec<Vector<D>>,
+    node_mass: Vec<Real>,
+    incidence_ptr: Vec<usize>,
+    incidence: Vec<(u32, u32)>,
+}
+
+impl<const D: usize> ReferenceConfig<D> {
+    /// Caches the stencils of particles at reference positions `positions` (m) with masses
+    /// `mass` (kg) on grid `spec` with `kernel`. Every stencil must lie inside the grid.
+    pub fn new(
+        spec: GridSpec<D>,
+        kernel: Kernel,
+        positions: &[Vector<D>],
+        mass: &[Real],
+    ) -> Result<Self, SetupError> {
+        if positions.len() >= NONE as usize {
+            return Err(SetupError::InvalidParameter {
+                name: "particles",
+                value: positions.len() as Real,
+                reason: "too many particles for 32-bit indices",
+            });
+        }
+        for (p, x) in positions.iter().enumerate() {
+            if !spec.contains_stencil(kernel, x) {
+                return Err(SetupError::ParticleOutsideGrid {
+                    index: p,
+                    position: format!("{:?}", x.as_slice()),
+                });
+            }
+        }
+        let slots = kernel.support().pow(D as u32);
+        let n = positions.len();
+        // Pass 1: which grid nodes carry weight.
+        let mut node_of_grid = vec![NONE; spec.num_nodes()];
+        for x in positions {
+            Stencil::new(kernel, &spec, x).for_each(|node, w, _| {
+                if let (Some(g), true) = (spec.linear_index(&node), w > 0.0) {
+                    node_of_grid[g] = 0;
+                }
+            });
+        }
+        let mut node_grid = Vec::new();
+        for (g, id) in node_of_grid.iter_mut().enumerate() {
+            if *id == 0 {
+                *id = node_grid.len() as u32;
+                node_grid.push(g);
+            }
+        }
+        if node_grid.len() >= NONE as usize {
+            return Err(SetupError::InvalidParameter {
+                name: "grid.size",
+                value: node_grid.len() as Real,
+                reason: "too many active nodes for 32-bit indices",
+            });
+        }
+        // Pass 2: slots.
+        let mut slot_node = Vec::with_capacity(n * slots);
+        let mut slot_weight = Vec::with_capacity(n * slots);
+        let mut slot_gradient = Vec::with_capacity(n * slots);
+        for x in positions {
+            Stencil::new(kernel, &spec, x).for_each(|node, w, g| {
+                let id = spec.linear_index(&node).map_or(NONE, |i| node_of_grid[i]);
+                if w > 0.0 && id != NONE {
+                    slot_node.push(id);
+                    slot_weight.push(w);
+                    slot_gradient.push(g);
+                } else {
+                    slot_node.push(NONE);
+                    slot_weight.push(0.0);
+                    slot_gradient.push(Vector::<D>::zeros());
+                }
+            });
+        }
+        let num_nodes = node_grid.len();
+        // Node → (particle, slot) incidence, particles in ascending order within each node.
+        let mut incidence_ptr = vec![0usize; num_nodes + 1];
+        for &i in slot_node.iter().filter(|&&i| i != NONE) {
+            incidence_ptr[i as usize + 1] += 1;
+        }
+        for i in 0..num_nodes {
+            incidence_ptr[i + 1] += incidence_ptr[i];
+        }
+        let mut fill = incidence_ptr.clone();
+        let mut incidence = vec![(0u32, 0u32); incidence_ptr[num_nodes]];
+        for p in 0..n {
+            for k in 0..slots {
+                let i = slot_node[p * slots + k];
+                if i != NONE {
+                    incidence[fill[i as usize]] = (p as u32, k as u32);
+                    fill[i as usize] += 1;
+                }
+            }
+        }
+        let node_mass = (0..num_nodes)
+            .map(|i| {
+                incidence[incidence_ptr[i]..incidence_ptr[i + 1]]
+                    .iter()
+                    .map(|&(p, k)| slot_weight[p as usize * slots + k as usize] * mass[p as usize])
+                    .sum()
+            })
+            .collect();
+        let node_position = node_grid
+            .iter()
+            .map(|&g| spec.node_position(&spec.multi_index(g)))
+            .collect();
+        Ok(Self {
+            spec,
+            kernel,
+            slots,
+            positions: positions.to_vec(),
+            slot_node,
+            slot_weight,
+            slot_gradient,
+            node_grid,
+            node_position,
+            node_mass,
+            incidence_ptr,
+            incidence,
+        })
+    }
+
+    /// The reference grid.
+    pub fn spec(&self) -> &GridSpec<D> {
+        &self.spec
+    }
+
+    /// The B-spline kernel.
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+
+    /// Number of particles.
+    pub fn num_particles(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of active nodes.
+    pub fn num_nodes(&self) -> usize {
+        self.node_grid.len()
+    }
+
+    /// Reference particle positions `X_p` (m).
+    pub fn positions(&self) -> &[Vector<D>] {
+        &self.positions
+    }
+
+    /// Reference positions `X_i` of the active nodes (m).
+    pub fn node_positions(&self) -> &[Vector<D>] {
+        &self.node_position
+    }
+
+    /// Lumped node masses `m_i = Σ_p W_i(X_p) m_p` (kg), fixed for the run.
+    pub fn node_masses(&self) -> &[Real] {
+        &self.node_mass
+    }
+
+    /// Grid linear index of active node `i`.
+    pub fn grid_index(&self, i: usize) -> usize {
+        self.node_grid[i]
+    }
+
+    /// The cached stencil of particle `p`: `(active node, W_i(X_p), ∇^X W_i(X_p) in 1/m)` for
+    /// every node with positive weight, first axis fastest.
+    pub fn stencil(&self, p: usize) -> impl Iterator<Item = (usize, Real, Vector<D>)> + '_ {
+        let (nodes, w, g) = self.slots(p);
+        (0..self.slots)
+            .filter(move |&k| nodes[k] != NONE)
+            .map(move |k| (nodes[k] as usize, w[k], g[k]))
+    }
+
+    /// Slots of particle `p`: node ids (`NONE` for an empty slot), weights and gradients (1/m).
+    #[inline]
+    pub(crate) fn slots(&self, p: usize) -> (&[u32], &[Real], &[Vector<D>]) {
+        let r = p * self.slots..(p + 1) * self.slots;
+        (
+            &self.slot_node[r.clone()],
+            &self.slot_weight[r.clone()],
+            &self.slot_gradient[r],
+        )
+    }
+
+    /// `(particle, slot)` pairs touching active node `i`, particles ascending.
+    #[inline]
+    pub(crate) fn incidence(&self, i: usize) -> &[(u32, u32)] {
+        &self.incidence[self.incidence_ptr[i]..self.incidence_ptr[i + 1]]
+    }
+
+    /// Weight and gradient of slot `k` of particle `p`.
+    #[inline]
+    pub(crate) fn slot(&self, p: usize, k: usize) -> (Real, &Vector<D>) {
+        let s = p * self.slots + k;
+        (self.slot_weight[s], &self.slot_gradient[s])
+    }
+}
+
+/// Dirichlet data on the active nodes and the numbering of the nodes that keep equations.
+#[derive(Clone, Debug)]
+pub(crate) struct Constraints<const D: usize> {
+    /// Per node and component: 1 when free, 0 when prescribed.
+    pub mask: Vec<Vector<D>>,
+    /// Per node: prescribed velocity (m/s) of the fixed components, 0 elsewhere.
+    pub velocity: Vec<Vector<D>>,
+    /// Equation-node index of each active node, `NONE` when every component is fixed.
+    pub eq_of_node: Vec<u32>,
+    /// Active node of each equation node.
+    pub node_of_eq: Vec<u32>,
+}
+
+impl<const D: usize> Constraints<D> {
+    /// Applies `regions` (later regions override the velocity of earlier ones).
+    pub fn new(reference: &ReferenceConfig<D>, regions: &[FixedRegion<D>]) -> Self {
+        let n = reference.num_nodes();
+        let tol = 1e-9 * reference.spec().dx;
+        let mut mask = vec![Vector::<D>::from_element(1.0); n];
+        let mut velocity = vec![Vector::<D>::zeros(); n];
+        for (i, x) in reference.node_positions().iter().enumerate() {
+            for r in regions {
+                if (0..D).all(|a| x[a] >= r.min[a] - tol && x[a] <= r.max[a] + tol) {
+                    for a in (0..D).filter(|&a| r.axes[a]) {
+                        mask[i][a] = 0.0;
+                        velocity[i][a] = r.velocity[a];
+                    }
+                }
+            }
+        }
+        let mut eq_of_node = vec![NONE; n];
+        let mut node_of_eq = Vec::new();
+        for i in 0..n {
+            if mask[i].iter().any(|&m| m > 0.0) {
+                eq_of_node[i] = node_of_eq.len() as u32;
+                node_of_eq.push(i as u32);
+            }
+        }
+        Self {
+            mask,
+            velocity,
+            eq_of_node,
+            node_of_eq,
+        }
+    }
+
+    /// The displacement of node `i` over a step of `dt` (s): `free` (m) on the free components,
+    /// `Δt v_prescribed` on the prescribed ones.
+    #[inline]
+    pub fn displacement(&self, i: usize, free: Vector<D>, dt: Real) -> Vector<D> {
+        let mask = &self.mask[i];
+        free.component_mul(mask) + (self.velocity[i] * dt).component_mul(&mask.map(|m| 1.0 - m))
+    }
+
+    /// Whether component `a` of node `i` is free.
+    #[inline]
+    pub fn is_free(&self, i: usize, a: usize) -> bool {
+        self.mask[i][a] > 0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use mpm_core::Matrix;
+
+    fn lattice<const D: usize>(lo: Real, hi: Real, h: Real) -> Vec<Vector<D>> {
+        let n = ((hi - lo) / h).round() as usize;
+        (0..n.pow(D as u32))
+            .map(|k| {
+                let mut r = k;
+                Vector::<D>::from_fn(|_, _| {
+                    let i = r % n;
+                    r /= n;
+                    lo + (i as Real + 0.5) * h
+                })
+            })
+            .collect()
+    }
+
+    fn check<const D: usize>() {
+        let spec = GridSpec::<D>::new(Vector::<D>::zeros(), 0.1, [12; D]);
+        let x = lattice::<D>(0.3, 0.7, 0.05);
+        let m = vec![2.0; x.len()];
+        for kernel in [Kernel::Linear, Kernel::Quadratic, Kernel::Cubic] {
+            let r = ReferenceConfig::new(spec, kernel, &x, &m).unwrap();
+            // Node masses add up to the particle mass.
+            assert_relative_eq!(
+                r.node_masses().iter().sum::<Real>(),
+                2.0 * x.len() as Real,
+                max_relative = 1e-13
+            );
+            for p in 0..x.len() {
+                // Partition of unity and linear reproduction, Σ X_i ⊗ ∇W_i = I.
+                let (mut w, mut g) = (0.0, Matrix::<D>::zeros());
+                for (i, wi, gi) in r.stencil(p) {
+                    w += wi;
+                    g += r.node_positions()[i] * gi.transpose();
+                }
+                assert_relative_eq!(w, 1.0, epsilon = 1e-13);
+                assert_relative_eq!(g, Matrix::<D>::identity(), epsilon = 1e-11);
+            }
+            // Incidence lists are the transpose of the stencils, particles ascending.
+            let total: usize = (0..r.num_nodes()).map(|i| r.incidence(i).len()).sum();
+            assert_eq!(total, (0..x.len()).map(|p| r.stencil(p).count()).sum());
+            for i in 0..r.num_nodes() {
+                assert!(r.incidence(i).windows(2).all(|w| w[0].0 < w[1].0));
+            }
+        }
+        let outside = vec![Vector::<D>::from_element(0.01)];
+        assert!(matches!(
+            ReferenceConfig::new(spec, Kernel::Quadratic, &outside, &[1.0]),
+            Err(SetupError::ParticleOutsideGrid { index: 0, .. })
+        ));
+    }
+
+    #[test]
+    fn cached_stencils_reproduce_mass_and_linear_fields() {
+        check::<2>();
+        check::<3>();
+    }
+
+    #[test]
+    fn constraints_number_equation_nodes() {
+        let spec = GridSpec::<2>::new(Vector::<2>::zeros(), 0.1, [12; 2]);
+        let x = lattice::<2>(0.3, 0.7, 0.05);
+        let r = ReferenceConfig::new(spec, Kernel::Quadratic, &x, &vec![1.0; x.len()]).unwrap();
+        let mut roller = FixedRegion::clamp(Vector::<2>::new(0.0, 0.0), Vector::<2>::new(1.2, 0.3));
+        roller.axes = [false, true];
+        let clamp = FixedRegion::clamp(Vector::<2>::new(0.0, 0.7), Vector::<2>::new(1.2, 1.2));
+        let c = Constraints::new(&r, &[roller, clamp]);
+        // Quadratic stencils of particles at 0.325..0.675 reach nodes 2..=8 per axis.
+        assert_eq!(r.num_nodes(), 49);
+        // Rows y = 0.2, 0.3 (14 nodes) on rollers, rows y = 0.7, 0.8 (14 nodes) clamped.
+        let fixed: usize = c
+            .mask
+            .iter()
+            .map(|m| m.iter().filter(|&&x| x == 0.0).count())
+            .sum();
+        assert_eq!(fixed, 14 + 28);
+        assert_eq!(c.node_of_eq.len(), 35);
+    }
+}
