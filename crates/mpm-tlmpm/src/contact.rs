@@ -13,6 +13,7 @@
 //! particles sorted by cell, stable in index). Forces are gathered per particle in a fixed order,
 //! so results are bitwise identical for any thread count, and `f_qp = −f_pq` exactly.
 
+use crate::reference::ReferenceConfig;
 use mpm_core::boundary::ColliderShape;
 use mpm_core::{Real, Vector};
 use rayon::prelude::*;
@@ -98,12 +99,66 @@ pub struct ContactInput<'a, const D: usize> {
     pub radius: &'a [Real],
 }
 
+/// The solvers' contact stage: the radii, the contact pass and its per-particle forces.
+#[derive(Clone, Debug)]
+pub(crate) struct ContactStage<const D: usize> {
+    /// Effective radius r_p of every particle (m), fixed at set-up.
+    radius: Vec<Real>,
+    contact: ParticleContact<D>,
+    /// Per-particle contact forces f^c_p (N) of the last pass.
+    forces: Vec<Vector<D>>,
+}
+
+impl<const D: usize> ContactStage<D> {
+    /// Radii from `rule` and the initial volumes `volume0` (m^D).
+    pub fn new(rule: ContactRadius, volume0: &[Real]) -> Self {
+        Self {
+            radius: volume0.iter().map(|&v| rule.radius::<D>(v)).collect(),
+            contact: ParticleContact::default(),
+            forces: Vec::new(),
+        }
+    }
+
+    /// Contact forces of Eq. 4 from the current positions `x` (m), with reference positions
+    /// `x_ref` (m) for the `r_crit` exclusion, for a step of `dt` (s), added to the external nodal
+    /// forces as `f^c_i = Σ_p W_i(X_p) f^c_p` (N): a gather over each node's particles in
+    /// ascending order.
+    pub fn apply(
+        &mut self,
+        reference: &ReferenceConfig<D>,
+        (x, mass): (&[Vector<D>], &[Real]),
+        obstacles: &[Obstacle<D>],
+        dt: Real,
+        external: &mut [Vector<D>],
+    ) -> ContactStats {
+        let input = ContactInput {
+            x,
+            x_ref: reference.positions(),
+            mass,
+            radius: &self.radius,
+        };
+        let stats = self.contact.forces(&input, obstacles, dt, &mut self.forces);
+        let forces = &self.forces;
+        external.par_iter_mut().enumerate().for_each(|(i, fi)| {
+            let mut f = Vector::<D>::zeros();
+            for &(p, k) in reference.incidence(i) {
+                f += forces[p as usize] * reference.slot(p as usize, k as usize).0;
+            }
+            *fi += f;
+        });
+        stats
+    }
+}
+
 /// Cell list and scratch, reused between steps.
 #[derive(Clone, Debug, Default)]
 pub struct ParticleContact<const D: usize> {
     cell_of: Vec<usize>,
     start: Vec<usize>,
+    next: Vec<usize>,
     order: Vec<usize>,
+    /// Per particle: force, pairs with higher index, obstacle contacts, largest overlap.
+    found: Vec<(Vector<D>, usize, usize, Real)>,
 }
 
 impl<const D: usize> ParticleContact<D> {
@@ -120,13 +175,20 @@ impl<const D: usize> ParticleContact<D> {
         let grid = CellGrid::covering(input.x, 2.0 * r_max);
         self.bin(&grid, input.x);
         let k = 1.0 / (dt * dt);
-        let per_particle: Vec<(Vector<D>, usize, usize, Real)> = (0..n)
+        let Self {
+            cell_of,
+            start,
+            order,
+            found,
+            ..
+        } = self;
+        (0..n)
             .into_par_iter()
             .map(|p| {
                 let (mut f, mut pairs, mut walls, mut overlap) = (Vector::<D>::zeros(), 0, 0, 0.0);
                 let (xp, rp, mp) = (input.x[p], input.radius[p], input.mass[p]);
-                grid.for_neighbour_cells(self.cell_of[p], |c| {
-                    for &q in &self.order[self.start[c]..self.start[c + 1]] {
+                grid.for_neighbour_cells(cell_of[p], |c| {
+                    for &q in &order[start[c]..start[c + 1]] {
                         if q == p {
                             continue;
                         }
@@ -153,10 +215,10 @@ impl<const D: usize> ParticleContact<D> {
                 }
                 (f, pairs, walls, overlap)
             })
-            .collect();
+            .collect_into_vec(found);
         forces.clear();
-        forces.extend(per_particle.iter().map(|t| t.0));
-        per_particle
+        forces.extend(found.iter().map(|t| t.0));
+        found
             .iter()
             .fold(ContactStats::default(), |s, t| ContactStats {
                 pairs: s.pairs + t.1,
@@ -178,7 +240,8 @@ impl<const D: usize> ParticleContact<D> {
         for c in 0..grid.count() {
             self.start[c + 1] += self.start[c];
         }
-        let mut next = self.start.clone();
+        self.next.clone_from(&self.start);
+        let next = &mut self.next;
         self.order.clear();
         self.order.resize(x.len(), 0);
         for (p, &c) in self.cell_of.iter().enumerate() {

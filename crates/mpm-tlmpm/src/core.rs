@@ -1,7 +1,10 @@
 //! State and stages shared by the implicit and the explicit TLMPM solvers.
 
+use crate::adaptive::Adaptive;
+use crate::contact::{ContactRadius, ContactStage, ContactStats};
 use crate::error::{NewtonError, StepError};
 use crate::params::{TlmpmParams, Transfer};
+use crate::potential::Constitutive;
 use crate::reference::{Constraints, ReferenceConfig};
 use crate::transfer::{self, Update};
 use mpm_core::material::{ElasticModel, Lame, Plasticity};
@@ -52,27 +55,35 @@ pub struct StageTimes {
     pub p2g: Duration,
     /// External nodal forces (gravity).
     pub external_forces: Duration,
+    /// Particle contact forces (Eq. 4) and their P2G to the nodes.
+    pub contact: Duration,
     /// Grid solve: Newton (implicit) or the symplectic Euler update (explicit).
     pub solve: Duration,
     /// G2P, F update and guard checks.
     pub g2p: Duration,
     /// Writing accepted particle updates.
     pub commit: Duration,
+    /// A-ULMPM: the trigger test after every step and the reference updates it fires (for the
+    /// implicit solver the sparsity pattern and symbolic factorisation are rebuilt at the start
+    /// of the next step and counted in `solve`).
+    pub reference_update: Duration,
     /// Breakdown of the implicit solve.
     pub newton: NewtonTimes,
 }
 
 impl StageTimes {
     /// `(stage name, seconds)` for every stage, in execution order.
-    pub fn table(&self) -> [(&'static str, f64); 7] {
+    pub fn table(&self) -> [(&'static str, f64); 9] {
         [
             ("reference", self.reference.as_secs_f64()),
             ("time_step", self.time_step.as_secs_f64()),
             ("p2g", self.p2g.as_secs_f64()),
             ("external_forces", self.external_forces.as_secs_f64()),
+            ("contact", self.contact.as_secs_f64()),
             ("solve", self.solve.as_secs_f64()),
             ("g2p", self.g2p.as_secs_f64()),
             ("commit", self.commit.as_secs_f64()),
+            ("reference_update", self.reference_update.as_secs_f64()),
         ]
     }
 }
@@ -108,6 +119,10 @@ pub(crate) struct Core<const D: usize> {
     pub displacement: Vec<Vector<D>>,
     /// G2P results awaiting the guard checks.
     pub updates: Vec<Update<D>>,
+    /// The contact stage, when contact is on.
+    pub contact: Option<ContactStage<D>>,
+    /// A-ULMPM state, when reference updates are on.
+    pub adaptive: Option<Adaptive<D>>,
 }
 
 impl<const D: usize> Core<D>
@@ -124,6 +139,23 @@ where
         let models = validate(&spec, &params, &materials, &particles)?;
         let reference = ReferenceConfig::new(spec, params.kernel, &particles.x, &particles.mass)?;
         let constraints = Constraints::new(&reference, &params.fixed);
+        let contact = params
+            .contact
+            .as_ref()
+            .map(|c| ContactStage::new(c.radius, &particles.volume0));
+        let adaptive = params.reference_update.map(|trigger| {
+            let mut a = Adaptive::new(
+                trigger,
+                particles.def_grad.as_deref().unwrap_or(&[]),
+                &materials,
+                &particles.material,
+                particles.plastic.as_deref(),
+            );
+            if Adaptive::<D>::needs_base(&materials) {
+                a.base = Some(vec![Matrix::<D>::identity(); particles.len()]);
+            }
+            a
+        });
         Ok(Self {
             params,
             materials,
@@ -138,12 +170,19 @@ where
             external: Vec::new(),
             displacement: Vec::new(),
             updates: Vec::new(),
+            contact,
+            adaptive,
         })
     }
 
-    /// Deformation gradients at the start of the step.
+    /// Elastic deformation gradients `F_E` at the start of the step.
     pub fn def_grad(&self) -> &[Matrix<D>] {
         self.particles.def_grad.as_deref().unwrap_or(&[])
+    }
+
+    /// Number of A-ULMPM reference updates so far.
+    pub fn reference_updates(&self) -> u64 {
+        self.adaptive.as_ref().map_or(0, |a| a.updates)
     }
 
     /// Stage: momentum to the reference grid (with [`Transfer::Persistent`], the node
@@ -170,6 +209,19 @@ where
             .extend(self.reference.node_masses().iter().map(|&m| g * m));
     }
 
+    /// Stage: particle contact forces (Eq. 4) at the current positions for a step of `dt` (s),
+    /// added to the external nodal forces; `None` when contact is off.
+    pub fn contact(&mut self, dt: Real) -> Option<ContactStats> {
+        let (stage, params) = (self.contact.as_mut()?, self.params.contact.as_ref()?);
+        Some(stage.apply(
+            &self.reference,
+            (&self.particles.x, &self.particles.mass),
+            &params.obstacles,
+            dt,
+            &mut self.external,
+        ))
+    }
+
     /// Guard check on the node displacements: all finite.
     pub fn check_displacements(&self) -> Result<(), Failure> {
         match self
@@ -193,23 +245,67 @@ where
         }
     }
 
-    /// Stage: G2P into scratch storage, then the guard checks (particles are not modified).
+    /// Stage: G2P into scratch storage, then the guard checks, then (A-ULMPM) the elastic
+    /// deformation gradients and plastic return mapping (particles are not modified).
     pub fn grid_to_particles(&mut self, dt: Real) -> Result<(), Failure> {
+        let rel = split_law(&self.models, &self.particles, self.adaptive.as_ref()).1;
         transfer::grid_to_particles(
             &self.reference,
             &self.displacement,
             dt,
-            (
-                &self.particles.x,
-                self.particles.def_grad.as_deref().unwrap_or(&[]),
-            ),
+            (&self.particles.x, rel),
             &mut self.updates,
         );
         let (materials, material) = (&self.materials, &self.particles.material);
         transfer::check_updates(&self.updates, |p| {
             materials[material[p] as usize].defined_for_inverted()
         })
-        .map_err(|e| Failure::Guard(Stage::G2P, e))
+        .map_err(|e| Failure::Guard(Stage::G2P, e))?;
+        if let Some(a) = &mut self.adaptive {
+            a.plastic_update(
+                &self.updates,
+                materials,
+                material,
+                self.particles.plastic.as_deref(),
+            )
+            .map_err(|e| Failure::Guard(Stage::G2P, e))?;
+        }
+        Ok(())
+    }
+
+    /// Stage (A-ULMPM, after an accepted step): when the trigger fires, moves the reference
+    /// configuration to the current positions (see [`crate::adaptive`]). Returns whether it did.
+    pub fn reference_update(&mut self) -> Result<bool, Failure> {
+        let Some(a) = &mut self.adaptive else {
+            return Ok(false);
+        };
+        if !a.marked().1 {
+            return Ok(false);
+        }
+        let ps = &mut self.particles;
+        let reference = ReferenceConfig::new(
+            *self.reference.spec(),
+            self.reference.kernel(),
+            &ps.x,
+            &ps.mass,
+        )
+        .map_err(|e| {
+            let p = match e {
+                SetupError::ParticleOutsideGrid { index, .. } => Location::Particle(index),
+                _ => Location::Global,
+            };
+            Failure::Guard(Stage::G2P, (p, Violation::LeftDomain, Real::NAN))
+        })?;
+        ps.affine.par_iter_mut().zip(&a.rel).for_each(|(c, g)| {
+            *c = Dim::<D>::inverse(g).map_or(Matrix::<D>::zeros(), |gi| *c * gi)
+        });
+        a.base = Some(self.particles.def_grad.clone().unwrap_or_default());
+        a.rel.fill(Matrix::<D>::identity());
+        a.updates += 1;
+        self.constraints = Constraints::new(&reference, &self.params.fixed);
+        self.reference = reference;
+        self.node_velocity.clear();
+        Ok(true)
     }
 
     /// Stage: writes the checked G2P results of a step of `dt` (s) into the particles (and the
@@ -225,6 +321,7 @@ where
             v,
             affine,
             def_grad,
+            plastic,
             ..
         } = &mut self.particles;
         let f = def_grad.as_deref_mut().unwrap_or(&mut []);
@@ -232,8 +329,30 @@ where
             x[p] = u.x;
             v[p] = u.v;
             affine[p] = u.affine;
-            if let Some(fp) = f.get_mut(p) {
-                *fp = u.def_grad;
+        }
+        match &mut self.adaptive {
+            None => {
+                for (fp, u) in f.iter_mut().zip(&self.updates) {
+                    *fp = u.def_grad;
+                }
+            }
+            Some(a) => {
+                let plastic = plastic.as_deref_mut().unwrap_or(&mut []);
+                for (p, (u, (fe, b, state))) in self.updates.iter().zip(&a.pending).enumerate() {
+                    a.rel[p] = u.def_grad;
+                    f[p] = *fe;
+                    if let Some(base) = &mut a.base {
+                        base[p] = *b;
+                    }
+                    if let Some(s) = plastic.get_mut(p) {
+                        *s = *state;
+                    }
+                }
+                a.refresh_hardening(
+                    &self.materials,
+                    &self.particles.material,
+                    self.particles.plastic.as_deref(),
+                );
             }
         }
     }
@@ -329,6 +448,27 @@ where
     }
 }
 
+/// The constitutive law of `particles` and their deformation gradients since the reference
+/// configuration (the A-ULMPM `G` column, else the particles' F).
+pub(crate) fn split_law<'a, const D: usize>(
+    models: &'a [ElasticModel],
+    particles: &'a Particles<D>,
+    adaptive: Option<&'a Adaptive<D>>,
+) -> (Constitutive<'a, D>, &'a [Matrix<D>]) {
+    let law = Constitutive {
+        models,
+        material: &particles.material,
+        volume0: &particles.volume0,
+        base: adaptive.and_then(|a| a.base.as_deref()),
+        hardening: adaptive.and_then(|a| a.hardening.as_deref()),
+    };
+    let rel = match adaptive {
+        Some(a) => &a.rel[..],
+        None => particles.def_grad.as_deref().unwrap_or(&[]),
+    };
+    (law, rel)
+}
+
 /// `max` that propagates NaN, so a NaN speed is noticed instead of ignored.
 fn nan_max(a: Real, b: Real) -> Real {
     if a.is_nan() || b.is_nan() {
@@ -376,6 +516,21 @@ fn validate<const D: usize>(
     if params.gravity.iter().any(|g| !g.is_finite()) {
         return invalid("gravity", Real::NAN, "must be finite");
     }
+    if let Some(c) = &params.contact {
+        if let ContactRadius::Fixed(r) = c.radius {
+            if !(r > 0.0 && r.is_finite()) {
+                return invalid("contact.radius", r, "must be positive and finite");
+            }
+        }
+    }
+    if let Some(u) = &params.reference_update {
+        if u.epsilon.is_nan() || u.epsilon < 0.0 {
+            return invalid("reference_update.epsilon", u.epsilon, "must be at least 0");
+        }
+        if !(0.0..=1.0).contains(&u.eta) {
+            return invalid("reference_update.eta", u.eta, "must lie in [0, 1]");
+        }
+    }
     let placeholder = ElasticModel::LinearElastic(Lame {
         mu: 0.0,
         lambda: 0.0,
@@ -384,7 +539,10 @@ fn validate<const D: usize>(
     for (k, m) in materials.iter().enumerate() {
         let used = particles.material.iter().any(|&i| i as usize == k);
         match m {
-            Material::Solid(s) if matches!(s.plasticity, Plasticity::None) => {
+            Material::Solid(s)
+                if matches!(s.plasticity, Plasticity::None)
+                    || params.reference_update.is_some() =>
+            {
                 models.push(s.elastic);
             }
             _ if !used => models.push(placeholder),
@@ -392,7 +550,7 @@ fn validate<const D: usize>(
                 return invalid(
                     "material.plasticity",
                     k as Real,
-                    "TLMPM supports elastic solids only (plastic flow needs reference updates)",
+                    "plastic solids need A-ULMPM reference updates (reference_update)",
                 );
             }
             Material::Fluid(_) => {
@@ -403,6 +561,12 @@ fn validate<const D: usize>(
             return Err(SetupError::MissingColumn {
                 material: k,
                 column: "F",
+            });
+        }
+        if used && m.needs_plastic_state() && particles.plastic.is_none() {
+            return Err(SetupError::MissingColumn {
+                material: k,
+                column: "plastic",
             });
         }
     }

@@ -1,9 +1,10 @@
 //! Explicit TLMPM: symplectic Euler on the reference grid, for comparison and cheap cases.
 
-use crate::core::{timed, Core, Failure, StageTimes};
+use crate::contact::ContactStats;
+use crate::core::{split_law, timed, Core, Failure, StageTimes};
 use crate::error::StepError;
 use crate::params::TlmpmParams;
-use crate::potential::{internal_force, weighted_stresses};
+use crate::potential::internal_force;
 use crate::reference::ReferenceConfig;
 use mpm_core::{
     Diagnostics, Dim, DimOps, GridSpec, Material, Matrix, Particles, Real, SetupError, Vector,
@@ -20,12 +21,18 @@ pub struct ExplicitStepInfo {
     pub retries: u32,
     /// Simulation time after the step (s).
     pub time: Real,
+    /// What the contact stage of the accepted attempt found (`None` when contact is off).
+    pub contact: Option<ContactStats>,
+    /// Whether an A-ULMPM reference update followed the step.
+    pub reference_updated: bool,
 }
 
 /// Explicit total-Lagrangian MPM: P2G of momentum to the reference grid, the internal force of
 /// Eq. 3 at `F^n`, the symplectic Euler update `v_i^{n+1} = v̂_i + Δt (f_i + f^ext_i)/m_i`, then
 /// G2P with `F^{n+1} = F^n + Δt Σ_i v_i^{n+1} ⊗ ∇^X W_i(X_p)`. Stable for
-/// `Δt ≲ Δx / c` with `c` the P-wave speed.
+/// `Δt ≲ Δx / c` with `c` the P-wave speed. Contact forces (Eq. 4, evaluated at `x^n`) join the
+/// external forces; their stiffness `m/Δt²` gives `ω Δt ≈ 1` per contact, inside the symplectic
+/// Euler bound of 2 for any Δt.
 #[derive(Clone, Debug)]
 pub struct ExplicitTlmpm<const D: usize> {
     core: Core<D>,
@@ -70,14 +77,24 @@ where
             .map_err(|f| self.core.error(f, 0.0, 0))?;
         self.stats.time_step += t.elapsed();
         let (stress, stats) = (&mut self.stress, &mut self.stats);
-        let ((), dt, retries) = self
+        let (contact, dt, retries) = self
             .core
             .run_step(dt0, |core, dt| advance(core, stress, stats, dt))?;
+        let core = &mut self.core;
+        let reference_updated = timed(&mut self.stats.reference_update, || core.reference_update())
+            .map_err(|f| self.core.error(f, dt, retries))?;
         Ok(ExplicitStepInfo {
             dt,
             retries,
             time: self.core.time,
+            contact,
+            reference_updated,
         })
+    }
+
+    /// Number of A-ULMPM reference updates so far (0 without [`TlmpmParams::reference_update`]).
+    pub fn reference_updates(&self) -> u64 {
+        self.core.reference_updates()
     }
 
     /// The solver parameters.
@@ -135,19 +152,20 @@ fn advance<const D: usize>(
     stress: &mut Vec<Matrix<D>>,
     stats: &mut StageTimes,
     dt: Real,
-) -> Result<(), Failure>
+) -> Result<Option<ContactStats>, Failure>
 where
     Dim<D>: DimOps<D>,
 {
     timed(&mut stats.p2g, || core.momentum_to_grid());
     timed(&mut stats.external_forces, || core.external_forces());
+    let contact = timed(&mut stats.contact, || core.contact(dt));
     timed(&mut stats.solve, || {
         update_grid(core, stress, dt);
         core.check_displacements()
     })?;
     timed(&mut stats.g2p, || core.grid_to_particles(dt))?;
     timed(&mut stats.commit, || core.commit(dt));
-    Ok(())
+    Ok(contact)
 }
 
 /// Stage: internal forces (Eq. 3) at `F^n` and the symplectic Euler node update, stored as
@@ -164,16 +182,12 @@ where
         grid_velocity,
         external,
         displacement,
+        adaptive,
         ..
     } = core;
     stress.resize(particles.len(), Matrix::<D>::zeros());
-    weighted_stresses(
-        models,
-        &particles.material,
-        &particles.volume0,
-        particles.def_grad.as_deref().unwrap_or(&[]),
-        stress,
-    );
+    let (law, rel) = split_law(models, particles, adaptive.as_ref());
+    law.weighted_stresses(rel, stress);
     let masses = reference.node_masses();
     displacement.resize(masses.len(), Vector::<D>::zeros());
     let stress = &*stress;

@@ -3,13 +3,13 @@
 use crate::assembly::HessianPattern;
 use crate::cg::{pcg, CgEnd, CgWork};
 use crate::cholesky::{CholeskyError, SparseCholesky};
-use crate::core::{timed, Core, Failure, NewtonTimes, StageTimes};
+use crate::contact::ContactStats;
+use crate::core::{split_law, timed, Core, Failure, NewtonTimes, StageTimes};
 use crate::error::StepError;
 use crate::newton::{minimize, Indefinite, NewtonInfo, NewtonWork, Objective};
 use crate::params::{ImplicitParams, LinearSolver, TlmpmParams};
-use crate::potential::{deformation, tensor_len, weighted_stresses, Potential};
+use crate::potential::{deformation, tensor_len, Potential};
 use crate::reference::ReferenceConfig;
-use mpm_core::material::Hyperelastic;
 use mpm_core::{
     Diagnostics, Dim, DimOps, GridSpec, Location, Material, Matrix, Particles, Real, SetupError,
     Stage, Vector, Violation,
@@ -27,6 +27,11 @@ pub struct ImplicitStepInfo {
     pub time: Real,
     /// The Newton solve of the accepted attempt.
     pub newton: NewtonInfo,
+    /// What the contact stage of the accepted attempt found (`None` when contact is off).
+    pub contact: Option<ContactStats>,
+    /// Whether an A-ULMPM reference update followed the step (the sparsity pattern and the
+    /// symbolic factorisation are then rebuilt at the start of the next step).
+    pub reference_updated: bool,
 }
 
 /// The assembled Newton system for the Cholesky solver: pattern, values, right-hand side and
@@ -57,6 +62,10 @@ struct ObjectiveWork<const D: usize> {
 #[derive(Debug, Default)]
 struct Workspace<const D: usize> {
     target: Vec<Vector<D>>,
+    /// Residual `∇E` (N) at the state of the last [`ImplicitTlmpm::linearize`].
+    probe_residual: Vec<Vector<D>>,
+    /// Time step (s) of the last [`ImplicitTlmpm::linearize`].
+    probe_dt: Real,
     newton: NewtonWork<D>,
     objective: ObjectiveWork<D>,
 }
@@ -110,7 +119,8 @@ where
         Ok(solver)
     }
 
-    /// Builds the sparsity pattern and the symbolic factorisation (once).
+    /// Builds the sparsity pattern and the symbolic factorisation (once, and again after each
+    /// A-ULMPM reference update).
     fn analyse(&mut self) -> Result<(), CholeskyError> {
         if self.ws.objective.sparse.is_some() {
             return Ok(());
@@ -143,15 +153,114 @@ where
             .map_err(|f| self.core.error(f, 0.0, 0))?;
         self.stats.time_step += t.elapsed();
         let (ws, stats, implicit) = (&mut self.ws, &mut self.stats, self.implicit);
-        let (newton, dt, retries) = self
+        let ((newton, contact), dt, retries) = self
             .core
             .run_step(dt0, |core, dt| advance(core, ws, stats, &implicit, dt))?;
+        let core = &mut self.core;
+        let reference_updated = timed(&mut self.stats.reference_update, || core.reference_update())
+            .map_err(|f| self.core.error(f, dt, retries))?;
+        if reference_updated {
+            self.ws.objective.sparse = None;
+        }
         Ok(ImplicitStepInfo {
             dt,
             retries,
             time: self.core.time,
             newton,
+            contact,
+            reference_updated,
         })
+    }
+
+    /// Number of A-ULMPM reference updates so far (0 without [`TlmpmParams::reference_update`]);
+    /// each one also rebuilt the sparsity pattern and the symbolic factorisation.
+    pub fn reference_updates(&self) -> u64 {
+        self.core.reference_updates()
+    }
+
+    /// Linearises the Newton system of a step of `dt` (s) at the initial guess, without advancing
+    /// the simulation: runs the P2G, external-force and contact stages, sets the node
+    /// displacements to the explicit predictor, and computes the residual `∇E` and the
+    /// per-particle elasticity tensors there (exact tangent). Builds the sparsity pattern and the
+    /// symbolic factorisation if needed (also with the CG solver). With
+    /// [`Self::assemble_tangent`], [`Self::factorize_tangent`] and [`Self::solve_tangent`] this
+    /// exposes the phases of one Newton iteration, e.g. for benchmarks.
+    pub fn linearize(&mut self, dt: Real) -> Result<(), CholeskyError> {
+        self.analyse()?;
+        let core = &mut self.core;
+        core.momentum_to_grid();
+        core.external_forces();
+        core.contact(dt);
+        let ws = &mut self.ws;
+        ws.target.clear();
+        ws.target.extend(core.grid_velocity.iter().map(|v| v * dt));
+        let masses = core.reference.node_masses();
+        let predictor: Vec<Vector<D>> = (0..masses.len())
+            .map(|i| {
+                let free = (core.grid_velocity[i] + core.external[i] * (dt / masses[i])) * dt;
+                core.constraints.displacement(i, free, dt)
+            })
+            .collect();
+        core.displacement = predictor;
+        let pot = potential(core, &ws.target, dt);
+        let o = &mut ws.objective;
+        let (np, nn) = (core.particles.len(), masses.len());
+        o.def_grad.resize(np, Matrix::<D>::zeros());
+        deformation(
+            pot.reference,
+            pot.def_grad,
+            &core.displacement,
+            &mut o.def_grad,
+        );
+        o.stress.resize(np, Matrix::<D>::zeros());
+        pot.law.weighted_stresses(&o.def_grad, &mut o.stress);
+        ws.probe_residual.resize(nn, Vector::<D>::zeros());
+        o.magnitude.resize(nn, 0.0);
+        pot.gradient(
+            &core.displacement,
+            &o.stress,
+            &mut ws.probe_residual,
+            &mut o.magnitude,
+        );
+        o.tensors.resize(np * tensor_len(D), 0.0);
+        pot.tensors(&o.def_grad, false, &mut o.tensors);
+        ws.probe_dt = dt;
+        Ok(())
+    }
+
+    /// Assembles the sparse Newton matrix `M/Δt² + K` (lower triangle) from the tensors of the
+    /// last [`Self::linearize`].
+    pub fn assemble_tangent(&mut self) -> Result<(), CholeskyError> {
+        let pot = potential(&self.core, &self.ws.target, self.ws.probe_dt);
+        let ObjectiveWork {
+            sparse, tensors, ..
+        } = &mut self.ws.objective;
+        let sys = sparse.as_mut().ok_or(CholeskyError::NotFactorized)?;
+        sys.pattern.assemble(&pot, tensors, &mut sys.values);
+        Ok(())
+    }
+
+    /// Numeric Cholesky factorisation of the last assembled Newton matrix (the symbolic
+    /// factorisation is reused).
+    pub fn factorize_tangent(&mut self) -> Result<(), CholeskyError> {
+        let sys = self.ws.objective.sparse.as_mut();
+        let sys = sys.ok_or(CholeskyError::NotFactorized)?;
+        sys.cholesky.factorize(&sys.values)
+    }
+
+    /// Solves `H d = −∇E` with the last factorisation (triangular solves) and returns `‖d‖₂`
+    /// (m), the length of the Newton step.
+    pub fn solve_tangent(&mut self) -> Result<Real, CholeskyError> {
+        let sys = self.ws.objective.sparse.as_mut();
+        let sys = sys.ok_or(CholeskyError::NotFactorized)?;
+        let r = &self.ws.probe_residual;
+        for (e, &j) in self.core.constraints.node_of_eq.iter().enumerate() {
+            for a in 0..D {
+                sys.rhs[e * D + a] = -r[j as usize][a];
+            }
+        }
+        sys.cholesky.solve_in_place(&mut sys.rhs)?;
+        Ok(sys.rhs.iter().map(|x| x * x).sum::<Real>().sqrt())
     }
 
     /// The solver parameters shared with the explicit variant.
@@ -209,6 +318,25 @@ where
     }
 }
 
+/// The incremental potential of a step of `dt` (s) with inertial prediction `target` (m) at the
+/// solver's current state.
+fn potential<'a, const D: usize>(
+    core: &'a Core<D>,
+    target: &'a [Vector<D>],
+    dt: Real,
+) -> Potential<'a, D> {
+    let (law, def_grad) = split_law(&core.models, &core.particles, core.adaptive.as_ref());
+    Potential {
+        reference: &core.reference,
+        constraints: &core.constraints,
+        law,
+        def_grad,
+        target,
+        external: &core.external,
+        inv_dt2: 1.0 / (dt * dt),
+    }
+}
+
 fn linear_error(e: CholeskyError) -> crate::error::NewtonError {
     crate::error::NewtonError::LinearSolver {
         iteration: 0,
@@ -223,18 +351,19 @@ fn advance<const D: usize>(
     stats: &mut StageTimes,
     implicit: &ImplicitParams,
     dt: Real,
-) -> Result<NewtonInfo, Failure>
+) -> Result<(NewtonInfo, Option<ContactStats>), Failure>
 where
     Dim<D>: DimOps<D>,
 {
     timed(&mut stats.p2g, || core.momentum_to_grid());
     timed(&mut stats.external_forces, || core.external_forces());
+    let contact = timed(&mut stats.contact, || core.contact(dt));
     let newton = timed(&mut stats.solve, || {
         solve_grid(core, ws, &mut stats.newton, implicit, dt)
     })?;
     timed(&mut stats.g2p, || core.grid_to_particles(dt))?;
     timed(&mut stats.commit, || core.commit(dt));
-    Ok(newton)
+    Ok((newton, contact))
 }
 
 /// Stage: Newton on the backward-Euler incremental potential for the node displacements.
@@ -258,6 +387,7 @@ where
         grid_velocity,
         external,
         displacement,
+        adaptive,
         ..
     } = core;
     // Initial guess: the explicit predictor without internal forces on the free components,
@@ -268,14 +398,12 @@ where
         let free = (grid_velocity[i] + external[i] * (dt / masses[i])) * dt;
         constraints.displacement(i, free, dt)
     }));
-    let def_grad = particles.def_grad.as_deref().unwrap_or(&[]);
+    let (law, def_grad) = split_law(models, particles, adaptive.as_ref());
     let mut problem = Problem {
         pot: Potential {
             reference,
             constraints,
-            models,
-            material: &particles.material,
-            volume0: &particles.volume0,
+            law,
             def_grad,
             target: &ws.target,
             external,
@@ -320,9 +448,8 @@ where
     fn first_bad_particle(&self) -> (Location, Violation, Real) {
         let f = &self.ws.def_grad;
         for (p, fp) in f.iter().enumerate() {
-            let j = Dim::<D>::det(fp);
-            let model = &self.pot.models[self.pot.material[p] as usize];
-            if !model.psi(fp).is_finite() {
+            let j = Dim::<D>::det(&self.pot.law.elastic(p, fp));
+            if !self.pot.law.energy(p, fp).is_finite() {
                 return if j <= 0.0 {
                     (Location::Particle(p), Violation::InvertedElement, j)
                 } else {
@@ -371,13 +498,9 @@ where
         self.update_deformation(u);
         let n = self.ws.def_grad.len();
         self.ws.stress.resize(n, Matrix::<D>::zeros());
-        weighted_stresses(
-            self.pot.models,
-            self.pot.material,
-            self.pot.volume0,
-            &self.ws.def_grad,
-            &mut self.ws.stress,
-        );
+        self.pot
+            .law
+            .weighted_stresses(&self.ws.def_grad, &mut self.ws.stress);
         self.ws.magnitude.resize(u.len(), 0.0);
         let scale = self
             .pot

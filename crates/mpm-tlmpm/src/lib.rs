@@ -23,13 +23,33 @@
 //! ([`LinearSolver`]).
 //!
 //! A step is a short list of named stages, each timed in [`StageTimes`]:
-//! momentum to the reference grid (P2G) → external forces → grid solve (Newton, or the explicit
-//! update) → G2P with the F update and guard checks → commit. Every parallel loop writes
-//! per-particle or per-node results and every sum runs in a fixed order, so results are bitwise
-//! identical for any number of rayon threads.
+//! momentum to the reference grid (P2G) → external forces → contact → grid solve (Newton, or the
+//! explicit update) → G2P with the F update, plastic return mapping and guard checks → commit →
+//! reference update. Every parallel loop writes per-particle or per-node results and every sum
+//! runs in a fixed order, so results are bitwise identical for any number of rayon threads.
+//!
+//! **Contact** ([`ContactParams`], optional). The per-particle penalty forces of Eq. 4 are
+//! evaluated from the positions at the start of the step, `f^c_p = f^c(x^n)`, and enter as
+//! external nodal forces through the reference weights, `f^c_i = Σ_p W_i(X_p) f^c_p` (§3.2). In
+//! the implicit solver they are therefore *explicit*: a constant term `−f^c · u` of the
+//! incremental potential, with no contribution to the tangent, so the Newton matrix, its
+//! sparsity pattern and its symbolic factorisation stay those of the elastic problem. The
+//! consequence: contact is detected one step late (a pair approaching at `v_rel` overlaps by up
+//! to `v_rel Δt` before it is pushed back, so `v_rel Δt` must stay well below `r_p + r_q`), and
+//! backward Euler's unconditional stability does not extend to contact. The penalty stiffness
+//! `μ_pq/Δt²` of Eq. 4 gives `ω Δt = 1` per contact, inside the symplectic-Euler bound of 2 for
+//! any Δt, so contact does not bound the step; energy is not guaranteed to decrease through a
+//! collision, and in practice the transfers dissipate part of it.
+//!
+//! **A-ULMPM** ([`ReferenceUpdate`], optional; §5.4). After an accepted step, when enough
+//! particles changed volume since the reference configuration, the reference moves to the current
+//! positions and everything cached is rebuilt; plastic solids (snow, sand) are supported in this
+//! mode. See the `adaptive` module for the two deformation gradients and how the incremental F
+//! update composes with the plastic return mapping and the reference update.
 //!
 //! Units are SI (m, s, kg, Pa); in 2D volumes are areas (m²) and densities kg/m².
 
+mod adaptive;
 mod assembly;
 mod cg;
 mod cholesky;
@@ -53,7 +73,7 @@ pub use explicit::{ExplicitStepInfo, ExplicitTlmpm};
 pub use implicit::{ImplicitStepInfo, ImplicitTlmpm};
 pub use newton::{fitted_order, NewtonInfo};
 pub use params::{
-    FixedRegion, ImplicitParams, LineSearch, LinearSolver, NewtonParams, SpdProjection,
-    TlmpmParams, Transfer,
+    ContactParams, FixedRegion, ImplicitParams, LineSearch, LinearSolver, NewtonParams,
+    ReferenceUpdate, SpdProjection, TlmpmParams, Transfer,
 };
 pub use reference::ReferenceConfig;

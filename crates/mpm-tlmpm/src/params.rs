@@ -1,5 +1,6 @@
 //! Parameters of the TLMPM solvers.
 
+use crate::contact::{ContactRadius, Obstacle};
 use mpm_core::{Kernel, OnInstability, Real, TimeStepPolicy, Vector};
 use serde::{Deserialize, Serialize};
 
@@ -65,8 +66,38 @@ pub struct TlmpmParams<const D: usize> {
     pub time_step: TimeStepPolicy,
     /// Reaction to a failed guard check or a failed Newton solve.
     pub on_instability: OnInstability,
-    /// Dirichlet regions on the reference grid.
+    /// Dirichlet regions on the reference grid. After an A-ULMPM reference update they apply to
+    /// the nodes of the new reference grid.
     pub fixed: Vec<FixedRegion<D>>,
+    /// Particle–particle and particle–obstacle penalty contact (diq-mpm §3.2, Eq. 4); `None`
+    /// runs no contact stage.
+    pub contact: Option<ContactParams<D>>,
+    /// A-ULMPM adaptive reference updates (diq-mpm §5.4); `None` keeps the initial reference
+    /// configuration for the whole run (plain TLMPM, elastic solids only).
+    pub reference_update: Option<ReferenceUpdate>,
+}
+
+/// The contact stage: per-particle penalty forces of Eq. 4 from the current positions, applied
+/// as external nodal forces `f^c_i = Σ_p W_i(X_p) f^c_p` (N) through the reference weights.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactParams<const D: usize> {
+    /// Effective contact radius of each particle (§5.3 uses `Fixed(0.5 Δx)`).
+    pub radius: ContactRadius,
+    /// Obstacles of infinite mass (domain walls, colliders).
+    pub obstacles: Vec<Obstacle<D>>,
+}
+
+/// A-ULMPM trigger (Su et al. 2021; diq-mpm §5.4): after a step, a particle is *marked* when
+/// `δJ_p = |det F_p^{(r,n)} − 1| ≥ epsilon`, and the reference configuration is moved to the
+/// current one when at least one particle is marked and the marked fraction is `≥ eta`.
+/// `epsilon = ∞` never updates (TLMPM); `epsilon = 0, eta = 0` updates after every step
+/// (updated-Lagrangian MPM on a re-built grid). The paper uses `epsilon = eta = 0.01`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceUpdate {
+    /// Volume-change threshold ε on `|J^{(r,n)} − 1|` (dimensionless, ≥ 0).
+    pub epsilon: Real,
+    /// Fraction η of marked particles that triggers an update (dimensionless, in [0, 1]).
+    pub eta: Real,
 }
 
 impl<const D: usize> Default for TlmpmParams<D> {
@@ -78,6 +109,8 @@ impl<const D: usize> Default for TlmpmParams<D> {
             time_step: TimeStepPolicy::default(),
             on_instability: OnInstability::Abort,
             fixed: Vec::new(),
+            contact: None,
+            reference_update: None,
         }
     }
 }

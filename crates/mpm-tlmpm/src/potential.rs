@@ -11,7 +11,7 @@
 //! `E(u) = Σ_i m_i/(2Δt²) ‖u_i − û_i‖² + Σ_p V⁰_p ψ(F_p(u)) − Σ_i f^ext_i · u_i`
 //!
 //! with `û_i = Δt v̂_i` the inertial prediction from the transferred momentum and `f^ext`
-//! gravity (and any other external nodal force). Its gradient is
+//! gravity plus the contact forces (both fixed over the step). Its gradient is
 //! `∂E/∂u_i = m_i/Δt² (u_i − û_i) − f_i − f^ext_i` with the internal force of Eq. 3,
 //! `f_i = −Σ_p V⁰_p P(F_p) ∇^X W_i(X_p)`, and its Hessian is
 //! `M/Δt² + K`, `K_ij = Σ_p V⁰_p (∇^X W_i ⊗ I) : ∂P/∂F(F_p) : (∇^X W_j ⊗ I)` built from mpm-core's
@@ -34,13 +34,10 @@ pub(crate) struct Potential<'a, const D: usize> {
     pub reference: &'a ReferenceConfig<D>,
     /// Dirichlet data.
     pub constraints: &'a Constraints<D>,
-    /// Elastic model per material index.
-    pub models: &'a [ElasticModel],
-    /// Material index per particle.
-    pub material: &'a [u32],
-    /// Initial particle volumes V⁰ (m^D).
-    pub volume0: &'a [Real],
-    /// Deformation gradients at the start of the step.
+    /// The particles' constitutive law.
+    pub law: Constitutive<'a, D>,
+    /// Deformation gradients `F^{(r,n)}` since the reference configuration, at the start of
+    /// the step.
     pub def_grad: &'a [Matrix<D>],
     /// Inertial prediction û_i = Δt v̂_i (m).
     pub target: &'a [Vector<D>],
@@ -73,19 +70,86 @@ pub(crate) fn deformation<const D: usize>(
     });
 }
 
-/// `V⁰_p P(F_p)` (N·m, i.e. Pa·m^D) for every particle.
-pub(crate) fn weighted_stresses<const D: usize>(
-    models: &[ElasticModel],
-    material: &[u32],
-    volume0: &[Real],
-    f: &[Matrix<D>],
-    out: &mut [Matrix<D>],
-) where
+/// The elastic response of every particle as a function of its deformation gradient
+/// `G = F^{(r,n)}` relative to the reference configuration.
+///
+/// With A-ULMPM each particle carries a base `B_p = F^{(0,r)}_p` (the elastic deformation
+/// gradient accumulated up to the reference configuration), and the elastic deformation gradient
+/// is `F_E = G B_p`. The energy is integrated over the initial configuration,
+/// `Ψ_p(G) = V⁰_p ψ(G B_p)`, so the weighted stress is `∂Ψ_p/∂G = V⁰_p P(G B_p) B_pᵀ` and its
+/// differential is `V⁰_p dP(G B_p)[δG B_p] B_pᵀ`; the internal force keeps the form of Eq. 3 on
+/// the reference grid. Without a base (`B = I`, plain TLMPM) the code path is the unmodified
+/// `V⁰_p P(G)`. Snow hardening enters as a per-particle scale of the Lamé parameters, frozen over
+/// the step.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Constitutive<'a, const D: usize> {
+    /// Elastic model per material index.
+    pub models: &'a [ElasticModel],
+    /// Material index per particle.
+    pub material: &'a [u32],
+    /// Initial particle volumes V⁰ (m^D).
+    pub volume0: &'a [Real],
+    /// Per-particle base `B_p = F^{(0,r)}_p`; `None` means the identity.
+    pub base: Option<&'a [Matrix<D>]>,
+    /// Per-particle Lamé scale (plastic hardening, dimensionless); `None` means 1.
+    pub hardening: Option<&'a [Real]>,
+}
+
+impl<const D: usize> Constitutive<'_, D>
+where
     Dim<D>: DimOps<D>,
 {
-    out.par_iter_mut().enumerate().for_each(|(p, s)| {
-        *s = models[material[p] as usize].pk1(&f[p]) * volume0[p];
-    });
+    /// The elastic model of particle `p`, hardening applied.
+    #[inline]
+    pub fn model(&self, p: usize) -> ElasticModel {
+        let m = self.models[self.material[p] as usize];
+        match self.hardening {
+            Some(s) if s[p] != 1.0 => m.scaled(s[p]),
+            _ => m,
+        }
+    }
+
+    /// The elastic deformation gradient `F_E = G B_p` of particle `p`.
+    #[inline]
+    pub fn elastic(&self, p: usize, g: &Matrix<D>) -> Matrix<D> {
+        match self.base {
+            Some(b) => g * b[p],
+            None => *g,
+        }
+    }
+
+    /// `Ψ_p(G) = V⁰_p ψ(G B_p)` (J).
+    #[inline]
+    pub fn energy(&self, p: usize, g: &Matrix<D>) -> Real {
+        self.volume0[p] * self.model(p).psi(&self.elastic(p, g))
+    }
+
+    /// `∂Ψ_p/∂G = V⁰_p P(G B_p) B_pᵀ` (N·m).
+    #[inline]
+    pub fn weighted_stress(&self, p: usize, g: &Matrix<D>) -> Matrix<D> {
+        match self.base {
+            Some(b) => self.model(p).pk1(&(g * b[p])) * b[p].transpose() * self.volume0[p],
+            None => self.model(p).pk1(g) * self.volume0[p],
+        }
+    }
+
+    /// `V⁰_p dP(G B_p)[δG B_p] B_pᵀ` (N·m per unit δG).
+    #[inline]
+    pub fn weighted_differential(&self, p: usize, g: &Matrix<D>, dg: &Matrix<D>) -> Matrix<D> {
+        match self.base {
+            Some(b) => {
+                self.model(p).dpk1(&(g * b[p]), &(dg * b[p])) * b[p].transpose() * self.volume0[p]
+            }
+            None => self.model(p).dpk1(g, dg) * self.volume0[p],
+        }
+    }
+
+    /// `∂Ψ_p/∂G` (N·m) for every particle at `f`.
+    pub fn weighted_stresses(&self, f: &[Matrix<D>], out: &mut [Matrix<D>]) {
+        out.par_iter_mut().enumerate().for_each(|(p, s)| {
+            *s = self.weighted_stress(p, &f[p]);
+        });
+    }
 }
 
 /// Internal force of Eq. 3 on active node `i`, `f_i = −Σ_p V⁰_p P(F_p) ∇^X W_i(X_p)` (N), from
@@ -119,7 +183,7 @@ where
         scratch: &mut [Real],
     ) -> Option<(Real, Real)> {
         scratch.par_iter_mut().enumerate().for_each(|(p, e)| {
-            *e = self.volume0[p] * self.models[self.material[p] as usize].psi(&f[p]);
+            *e = self.law.energy(p, &f[p]);
         });
         let (mut elastic, mut elastic_abs) = (0.0, 0.0);
         for e in scratch.iter() {
@@ -170,11 +234,10 @@ where
         out.par_chunks_mut(tensor_len(D))
             .enumerate()
             .for_each(|(p, a)| {
-                let model = &self.models[self.material[p] as usize];
                 for col in 0..n2 {
                     let mut e = Matrix::<D>::zeros();
                     e[(col / D, col % D)] = 1.0;
-                    let dp = model.dpk1(&f[p], &e) * self.volume0[p];
+                    let dp = self.law.weighted_differential(p, &f[p], &e);
                     for row in 0..n2 {
                         a[row * n2 + col] = dp[(row / D, row % D)];
                     }

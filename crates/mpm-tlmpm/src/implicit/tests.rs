@@ -4,7 +4,7 @@ use crate::assembly::{symmetric_product, HessianPattern};
 use crate::cg::{pcg, CgEnd, CgWork};
 use crate::cholesky::SparseCholesky;
 use crate::params::FixedRegion;
-use crate::potential::{deformation, tensor_len, weighted_stresses, Potential};
+use crate::potential::{deformation, tensor_len, Constitutive, Potential};
 use crate::reference::{Constraints, ReferenceConfig};
 use mpm_core::material::{ElasticModel, Lame};
 use mpm_core::{Dim, DimOps, GridSpec, Kernel, Matrix, Real, Vector};
@@ -34,6 +34,8 @@ struct Fixture<const D: usize> {
     material: Vec<u32>,
     volume0: Vec<Real>,
     def_grad: Vec<Matrix<D>>,
+    /// A-ULMPM base `F^{(0,r)}` per particle, `None` for plain TLMPM.
+    base: Option<Vec<Matrix<D>>>,
     target: Vec<Vector<D>>,
     external: Vec<Vector<D>>,
     dt: Real,
@@ -92,6 +94,7 @@ where
             material: vec![0; n],
             volume0: vec![h.powi(D as i32); n],
             def_grad,
+            base: None,
             target: (0..nodes).map(|_| rng.vector::<D>(0.01)).collect(),
             external,
             dt: 2e-3,
@@ -99,13 +102,21 @@ where
         }
     }
 
+    fn law(&self) -> Constitutive<'_, D> {
+        Constitutive {
+            models: &self.models,
+            material: &self.material,
+            volume0: &self.volume0,
+            base: self.base.as_deref(),
+            hardening: None,
+        }
+    }
+
     fn potential(&self) -> Potential<'_, D> {
         Potential {
             reference: &self.reference,
             constraints: &self.constraints,
-            models: &self.models,
-            material: &self.material,
-            volume0: &self.volume0,
+            law: self.law(),
             def_grad: &self.def_grad,
             target: &self.target,
             external: &self.external,
@@ -125,7 +136,7 @@ where
         let mut f = vec![Matrix::<D>::zeros(); n];
         deformation(&self.reference, &self.def_grad, u, &mut f);
         let mut s = vec![Matrix::<D>::zeros(); n];
-        weighted_stresses(&self.models, &self.material, &self.volume0, &f, &mut s);
+        self.law().weighted_stresses(&f, &mut s);
         let mut g = vec![Vector::<D>::zeros(); u.len()];
         self.potential()
             .gradient(u, &s, &mut g, &mut vec![0.0; u.len()]);
@@ -189,12 +200,24 @@ fn models() -> [ElasticModel; 5] {
 
 /// Largest relative errors of (gradient, assembled tangent, matrix-free tangent) against
 /// central finite differences of the potential and of its gradient.
-fn finite_difference_errors<const D: usize>(model: ElasticModel, kernel: Kernel) -> [Real; 3]
+/// With `base`, every particle gets a random A-ULMPM base `F^{(0,r)}` near the identity.
+fn finite_difference_errors<const D: usize>(
+    model: ElasticModel,
+    kernel: Kernel,
+    base: bool,
+) -> [Real; 3]
 where
     Dim<D>: DimOps<D>,
 {
     let mut rng = Lcg(17);
-    let fx = Fixture::<D>::new(model, kernel, &mut rng);
+    let mut fx = Fixture::<D>::new(model, kernel, &mut rng);
+    if base {
+        fx.base = Some(
+            (0..fx.material.len())
+                .map(|_| Matrix::<D>::identity() + Matrix::<D>::from_fn(|_, _| 0.2 * rng.next()))
+                .collect(),
+        );
+    }
     let u = fx.state(&mut rng, 0.005);
     let pot = fx.potential();
     let g = fx.gradient(&u);
@@ -249,11 +272,17 @@ fn check_tangent<const D: usize>()
 where
     Dim<D>: DimOps<D>,
 {
-    for kernel in [Kernel::Quadratic, Kernel::Linear, Kernel::Cubic] {
+    let cases = [
+        (Kernel::Quadratic, false),
+        (Kernel::Linear, false),
+        (Kernel::Cubic, false),
+        (Kernel::Quadratic, true),
+    ];
+    for (kernel, base) in cases {
         for model in models() {
-            let [grad, tangent, matrix_free] = finite_difference_errors::<D>(model, kernel);
+            let [grad, tangent, matrix_free] = finite_difference_errors::<D>(model, kernel, base);
             println!(
-                "{D}D {kernel:?} {model:?}: gradient {grad:.2e}, tangent {tangent:.2e}, \
+                "{D}D {kernel:?} {model:?} (A-ULMPM base: {base}): gradient {grad:.2e}, tangent {tangent:.2e}, \
                  matrix-free {matrix_free:.2e}"
             );
             assert!(grad < 1e-6, "gradient error {grad:e}");

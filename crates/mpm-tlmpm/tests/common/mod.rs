@@ -25,15 +25,29 @@ pub fn neo_hookean(e: Real, nu: Real, rho: Real) -> Material {
 /// Fills the box `[lo, hi]` with particles on a lattice of spacing `h` (m), cell-centred, of
 /// density `rho`, material 0, velocity `vel(X)`.
 pub fn block<const D: usize>(
-    (lo, hi): (Vector<D>, Vector<D>),
+    bounds: (Vector<D>, Vector<D>),
     h: Real,
     rho: Real,
-    mut vel: impl FnMut(&Vector<D>) -> Vector<D>,
+    vel: impl FnMut(&Vector<D>) -> Vector<D>,
 ) -> Particles<D> {
     let mut particles = Particles::new(Columns {
         deformation_gradient: true,
         ..Columns::default()
     });
+    add_lattice(&mut particles, bounds, h, (rho, 0), |_| true, vel);
+    particles
+}
+
+/// Appends the lattice points of [`block`] in `[lo, hi]` for which `keep(X)` holds, of density
+/// `rho` and material `material`, velocity `vel(X)`.
+pub fn add_lattice<const D: usize>(
+    particles: &mut Particles<D>,
+    (lo, hi): (Vector<D>, Vector<D>),
+    h: Real,
+    (rho, material): (Real, u32),
+    keep: impl Fn(&Vector<D>) -> bool,
+    mut vel: impl FnMut(&Vector<D>) -> Vector<D>,
+) {
     let counts: [usize; D] = std::array::from_fn(|a| ((hi[a] - lo[a]) / h).round() as usize);
     let vol = h.powi(D as i32);
     for k in 0..counts.iter().product::<usize>() {
@@ -43,16 +57,17 @@ pub fn block<const D: usize>(
             r /= counts[a];
             lo[a] + (i as Real + 0.5) * h
         });
-        particles.push(ParticleInit {
-            x,
-            v: vel(&x),
-            mass: rho * vol,
-            volume0: vol,
-            material: 0,
-            affine: Matrix::<D>::zeros(),
-        });
+        if keep(&x) {
+            particles.push(ParticleInit {
+                x,
+                v: vel(&x),
+                mass: rho * vol,
+                volume0: vol,
+                material,
+                affine: Matrix::<D>::zeros(),
+            });
+        }
     }
-    particles
 }
 
 /// A grid of spacing `dx` whose nodes include `lo` and cover `[lo, hi]` with `margin` extra
