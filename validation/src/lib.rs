@@ -4,9 +4,11 @@
 //!
 //! Cases (module [`cases`]): the axis-aligned manufactured solution in 2D and 3D
 //! ([`cases::mms`]), a vibrating fixed-free bar ([`cases::bar`]), a free spinning disk
-//! ([`cases::disk`]) and a weakly compressible water column at rest
-//! ([`cases::hydrostatic`]). Stability sweeps over stiffness and CFL factor live in
-//! [`stability`]. Units are SI throughout.
+//! ([`cases::disk`]), a weakly compressible water column at rest
+//! ([`cases::hydrostatic`]) and six multi-grid cases ([`cases::multigrid`]: maximal drag against
+//! the single grid, momentum conservation of the couplings, frictionless sliding along a wall,
+//! immiscible separation, concentration diffusion, a floating block). Stability sweeps over
+//! stiffness and CFL factor live in [`stability`]. Units are SI throughout.
 
 pub mod cases;
 pub mod plot;
@@ -45,7 +47,7 @@ pub fn usage() -> String {
         "usage: mpm-validation --out DIR [--quick] [--case NAME]... [--strict]\n\
          \n\
          Runs the validation cases at several resolutions and writes DIR/report.json,\n\
-         DIR/REPORT.md and PNG plots. --quick uses small resolutions (well under a minute on\n\
+         DIR/REPORT.md and PNG plots. --quick uses small resolutions (a few minutes on\n\
          2 cores); --case restricts the run to the named case(s): {}.\n\
          Exit status: 0 when the report was written (verdicts are in the report), 1 when it could\n\
          not be written or, with --strict, when a case fails or a stability run blew up,\n\
@@ -104,6 +106,12 @@ fn error_label(case: &str) -> &'static str {
         cases::bar::NAME => "relative error",
         cases::disk::NAME => "relative angular-momentum drift",
         cases::hydrostatic::NAME => "bottom pressure error / (rho0 g H)",
+        cases::multigrid::drag_max::NAME => "max relative difference to one grid",
+        cases::multigrid::momentum::NAME => "relative momentum drift",
+        cases::multigrid::wall_slide::NAME => "|v_t / (g cos(theta) t) - 1|, delta = 0",
+        cases::multigrid::immiscible::NAME => "misplaced fraction, c_b > 0",
+        cases::multigrid::diffusion::NAME => "relative L2 concentration error",
+        cases::multigrid::archimedes::NAME => "|draft error| (cells)",
         _ => "error",
     }
 }

@@ -4,6 +4,7 @@ pub mod bar;
 pub mod disk;
 pub mod hydrostatic;
 pub mod mms;
+pub mod multigrid;
 
 use crate::report::{fit_rate, CaseResult, Mode, Run, Status};
 use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
@@ -14,12 +15,18 @@ use std::fmt;
 pub const SOLVER: &str = "mpm-explicit (explicit MLS-MPM, quadratic B-spline, APIC)";
 
 /// Names of all cases, in the order they run.
-pub const CASE_NAMES: [&str; 5] = [
+pub const CASE_NAMES: [&str; 11] = [
     mms::NAME_2D,
     mms::NAME_3D,
     bar::NAME,
     disk::NAME,
     hydrostatic::NAME,
+    multigrid::drag_max::NAME,
+    multigrid::momentum::NAME,
+    multigrid::wall_slide::NAME,
+    multigrid::immiscible::NAME,
+    multigrid::diffusion::NAME,
+    multigrid::archimedes::NAME,
 ];
 
 /// Why a run did not produce a result.
@@ -155,6 +162,12 @@ pub fn run_case(name: &str, mode: Mode) -> Option<CaseResult> {
         bar::NAME => bar::case(mode),
         disk::NAME => disk::case(mode),
         hydrostatic::NAME => hydrostatic::case(mode),
+        multigrid::drag_max::NAME => multigrid::drag_max::case(mode),
+        multigrid::momentum::NAME => multigrid::momentum::case(mode),
+        multigrid::wall_slide::NAME => multigrid::wall_slide::case(mode),
+        multigrid::immiscible::NAME => multigrid::immiscible::case(mode),
+        multigrid::diffusion::NAME => multigrid::diffusion::case(mode),
+        multigrid::archimedes::NAME => multigrid::archimedes::case(mode),
         _ => return None,
     })
 }

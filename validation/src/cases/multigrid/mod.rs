@@ -1,0 +1,119 @@
+//! Cases for multi-grid MLS-MPM (multigrid paper §4): every phase scatters to its own grid and
+//! the grids exchange momentum through drag, contact and buoyancy-penalty couplings; miscible
+//! fluids of one phase diffuse a concentration.
+//!
+//! - [`drag_max`]: drag at its clamp `c_E,max` and full coupling reproduce the single grid.
+//! - [`momentum`]: every coupling conserves the total momentum of all phases.
+//! - [`wall_slide`]: frictionless contact lets fluid slide along a wall the single grid sticks to.
+//! - [`immiscible`]: the buoyancy penalty separates two immiscible fluids of density ratio 2:5.
+//! - [`diffusion`]: concentration diffusion against the closed-box series solution.
+//! - [`archimedes`]: the draft of a floating elastic block in weakly compressible water.
+
+pub mod archimedes;
+pub mod diffusion;
+pub mod drag_max;
+pub mod immiscible;
+pub mod momentum;
+pub mod wall_slide;
+
+use super::lattice;
+use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
+use mpm_core::material::{FluidMaterial, Tait};
+use mpm_core::{Material, Matrix, ParticleExtra, ParticleInit, Particles, Real, Vector};
+use mpm_explicit::{BuoyancyPenalty, Coupling, CouplingKind, Phases, PressureBuoyancy};
+
+/// A weakly compressible Tait fluid (γ = 7) with rest density `density` (kg/m²), bulk modulus
+/// `bulk` (Pa) and dynamic viscosity `viscosity` (Pa·s).
+pub fn tait(density: Real, bulk: Real, viscosity: Real) -> Material {
+    Material::Fluid(FluidMaterial {
+        density,
+        eos: Tait {
+            bulk_modulus: bulk,
+            gamma: 7.0,
+        },
+        viscosity,
+    })
+}
+
+/// What the particles of one filled box are.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Body {
+    /// Material index.
+    pub material: u32,
+    /// Rest density (kg/m²): particle mass is `density · h²`.
+    pub density: Real,
+    /// Phase index (ignored when the particles have no phase column).
+    pub phase: u32,
+    /// Initial velocity (m/s).
+    pub velocity: Vector<2>,
+}
+
+/// Fills the box `[lo, hi]` (m) with particles of `body` on a lattice of spacing `h` (m) (see
+/// [`lattice`]); returns the index range of the new particles.
+pub fn fill(
+    particles: &mut Particles<2>,
+    (lo, hi): (Vector<2>, Vector<2>),
+    h: Real,
+    body: Body,
+) -> std::ops::Range<usize> {
+    let start = particles.len();
+    for x in lattice(&lo, &hi, h) {
+        particles.push_with(
+            ParticleInit {
+                x,
+                v: body.velocity,
+                mass: body.density * h * h,
+                volume0: h * h,
+                material: body.material,
+                affine: Matrix::<2>::zeros(),
+            },
+            ParticleExtra {
+                phase: body.phase,
+                ..ParticleExtra::default()
+            },
+        );
+    }
+    start..particles.len()
+}
+
+/// Two phases (0 and 1) joined by one coupling of `kind`, with a buoyancy penalty of strength
+/// `c_b` (dimensionless) when given.
+pub fn two_phases(kind: CouplingKind, buoyancy: Option<Real>) -> Phases {
+    Phases {
+        count: 2,
+        couplings: vec![Coupling {
+            phases: [0, 1],
+            kind,
+            buoyancy: buoyancy.map(|strength| BuoyancyPenalty { strength }),
+            pressure_buoyancy: PressureBuoyancy::Off,
+        }],
+    }
+}
+
+/// Frictionless slip walls `thickness` node layers thick on every face of the grid.
+pub fn slip_walls(thickness: usize) -> Boundaries<2> {
+    Boundaries {
+        walls: Some(DomainWalls {
+            contact: Contact {
+                kind: ContactKind::Slip,
+                friction: 0.0,
+            },
+            thickness,
+        }),
+        colliders: Vec::new(),
+    }
+}
+
+/// Mass-weighted mean of `f` over the particles `range` of `particles`.
+pub fn mass_mean(
+    particles: &Particles<2>,
+    range: std::ops::Range<usize>,
+    f: impl Fn(usize) -> Real,
+) -> Real {
+    let (mut sum, mut mass) = (0.0, 0.0);
+    for p in range {
+        sum += particles.mass[p] * f(p);
+        mass += particles.mass[p];
+    }
+    sum / mass
+}
