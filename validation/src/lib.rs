@@ -112,6 +112,10 @@ fn error_label(case: &str) -> &'static str {
         cases::multigrid::immiscible::NAME => "misplaced fraction, c_b > 0",
         cases::multigrid::diffusion::NAME => "relative L2 concentration error",
         cases::multigrid::archimedes::NAME => "|draft error| (cells)",
+        cases::tlmpm::newton_convergence::NAME => "final / first Newton residual",
+        cases::tlmpm::two_disks_contact::NAME => "1 - min gap / (r_p + r_q)",
+        cases::tlmpm::hanging_block_extreme::NAME => "connected components",
+        cases::tlmpm::mms_1d_tlmpm::NAME => "L2 displacement error (m)",
         _ => "error",
     }
 }

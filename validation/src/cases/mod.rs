@@ -5,6 +5,7 @@ pub mod disk;
 pub mod hydrostatic;
 pub mod mms;
 pub mod multigrid;
+pub mod tlmpm;
 
 use crate::report::{fit_rate, CaseResult, Mode, Run, Status};
 use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
@@ -15,7 +16,7 @@ use std::fmt;
 pub const SOLVER: &str = "mpm-explicit (explicit MLS-MPM, quadratic B-spline, APIC)";
 
 /// Names of all cases, in the order they run.
-pub const CASE_NAMES: [&str; 11] = [
+pub const CASE_NAMES: [&str; 15] = [
     mms::NAME_2D,
     mms::NAME_3D,
     bar::NAME,
@@ -27,6 +28,10 @@ pub const CASE_NAMES: [&str; 11] = [
     multigrid::immiscible::NAME,
     multigrid::diffusion::NAME,
     multigrid::archimedes::NAME,
+    tlmpm::newton_convergence::NAME,
+    tlmpm::two_disks_contact::NAME,
+    tlmpm::hanging_block_extreme::NAME,
+    tlmpm::mms_1d_tlmpm::NAME,
 ];
 
 /// Why a run did not produce a result.
@@ -168,6 +173,7 @@ pub fn run_case(name: &str, mode: Mode) -> Option<CaseResult> {
         multigrid::immiscible::NAME => multigrid::immiscible::case(mode),
         multigrid::diffusion::NAME => multigrid::diffusion::case(mode),
         multigrid::archimedes::NAME => multigrid::archimedes::case(mode),
+        n if tlmpm::NAMES.contains(&n) => return tlmpm::run(n, mode),
         _ => return None,
     })
 }
