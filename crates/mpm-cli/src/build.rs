@@ -6,17 +6,24 @@
 use crate::error::SceneError;
 use crate::mesh::{read_obj, TriMesh};
 use crate::scene::{
-    BodyDef, BoundaryGeometry, ContactName, Duration, InitialVolume, InstabilityAction, KernelKind,
-    LoadedScene, NumberOrList, SamplingDef, ShapeDef, TimeStepDef, TransferKind, VolumeUpdateKind,
+    ApplyName, BodyDef, BoundaryGeometry, ContactName, CouplingDef, CouplingKindDef, DragDef,
+    Duration, FrictionModel, InitialVolume, InstabilityAction, KernelKind, LoadedScene,
+    NumberOrList, PhiEffDef, SamplingDef, Scene, SchemeName, ShapeDef, TimeStepDef, TransferKind,
+    VolumeUpdateKind,
 };
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind, DomainWalls};
+use mpm_core::material::{Interaction, Scaling};
 use mpm_core::sampling::{sample, Sampling, Shape};
 use mpm_core::volume::estimate_volumes;
 use mpm_core::{
-    Columns, Dim, DimOps, GridSpec, Kernel, Matrix, OnInstability, ParticleInit, Particles,
+    Dim, DimOps, GridSpec, Kernel, Matrix, OnInstability, ParticleExtra, ParticleInit, Particles,
     SetupError, TimeStepPolicy, Vector,
 };
-use mpm_explicit::{ExplicitParams, ExplicitSolver, SoftWalls, Transfer, VolumeUpdate};
+use mpm_explicit::{
+    Activation, BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, DiffusionScheme,
+    Dissolution, Drag, EffectiveFraction, ExplicitParams, ExplicitSolver, Friction, Mixing, Phases,
+    Porous, PressureBuoyancy, SoftWalls, Transfer, VolumeUpdate,
+};
 use std::ops::Range;
 
 /// Largest number of particles a scene may create (memory guard against typos).
@@ -131,7 +138,82 @@ pub fn params<const D: usize>(scene: &LoadedScene) -> ExplicitParams<D> {
             lookahead: w.lookahead,
         }),
         body_force: None,
-        ..ExplicitParams::default()
+        phases: Phases {
+            count: scene.scene.phase_count(),
+            couplings: scene.scene.couplings.iter().map(coupling).collect(),
+        },
+        porous: scene.scene.porous.as_ref().map(|p| Porous {
+            update: match p.phi_eff {
+                PhiEffDef::Current => EffectiveFraction::Current,
+                PhiEffDef::Max => EffectiveFraction::Max,
+                PhiEffDef::Relax { rate } => EffectiveFraction::Relax { rate },
+                PhiEffDef::MaxRelax { rate } => EffectiveFraction::MaxRelax { rate },
+            },
+            interactions: p
+                .interactions
+                .iter()
+                .map(|it| Interaction {
+                    material: it.material_index as u32,
+                    parameter: it.parameter,
+                    scaling: Scaling {
+                        offset: it.offset,
+                        slope: it.slope,
+                        exponent: it.exponent,
+                    },
+                })
+                .collect(),
+        }),
+        mixing: scene.scene.mixing.as_ref().map(|m| Mixing {
+            fluids: m.fluid_indices.map(|k| k as u32),
+            diffusivity: m.diffusivity,
+            scheme: match m.scheme {
+                SchemeName::KernelGradient => DiffusionScheme::KernelGradient,
+                SchemeName::MlsDifference => DiffusionScheme::MlsDifference,
+            },
+        }),
+        dissolution: scene.scene.dissolution.as_ref().map(|d| Dissolution {
+            solid: d.solid_index as u32,
+            into: d.into_index as u32,
+            fluid_phase: d.fluid_phase,
+            rate: d.rate,
+        }),
+    }
+}
+
+/// The solver's coupling between two phase grids.
+fn coupling(c: &CouplingDef) -> Coupling {
+    Coupling {
+        phases: c.phases,
+        kind: match c.kind {
+            CouplingKindDef::Full => CouplingKind::Full,
+            CouplingKindDef::Drag(DragDef::Coefficient { coefficient }) => {
+                CouplingKind::Drag(Drag::Coefficient(coefficient))
+            }
+            CouplingKindDef::Drag(DragDef::Permeability {
+                porosity,
+                conductivity,
+            }) => CouplingKind::Drag(Drag::Permeability {
+                porosity,
+                conductivity,
+            }),
+            CouplingKindDef::Contact(k) => CouplingKind::Contact(ContactCoupling {
+                normal_share: k.normal_share,
+                friction: match k.friction_model {
+                    FrictionModel::Coulomb => Friction::Coulomb(k.friction),
+                    FrictionModel::Proportional => Friction::Proportional(k.friction),
+                },
+                activation: match k.apply {
+                    ApplyName::OnApproach => Activation::OnApproach,
+                    ApplyName::Always => Activation::Always,
+                },
+            }),
+        },
+        buoyancy: c.buoyancy.map(|strength| BuoyancyPenalty { strength }),
+        pressure_buoyancy: if c.pressure_buoyancy {
+            PressureBuoyancy::On
+        } else {
+            PressureBuoyancy::Off
+        },
     }
 }
 
@@ -410,7 +492,7 @@ where
         ));
     }
     let materials = scene.materials();
-    let mut particles = Particles::<D>::new(Columns::for_materials(&materials));
+    let mut particles = Particles::<D>::new(scene.columns());
     let mut bodies = Vec::new();
     let mut warnings = Vec::new();
     for (i, b) in sc.bodies.iter().enumerate() {
@@ -426,15 +508,23 @@ where
         let grad = velocity_gradient::<D>(b);
         let about = b.about.as_deref().map_or(Vector::<D>::zeros(), vector::<D>);
         let start = particles.len();
+        let extra = ParticleExtra {
+            phase: b.phase,
+            volume_fraction: b.initial_phi_eff.unwrap_or(0.0),
+            concentration: b.concentration.unwrap_or(0.0),
+        };
         for (x, vol) in xs.into_iter().zip(vols) {
-            particles.push(ParticleInit {
-                x,
-                v: v0 + grad * (x - about),
-                mass: rho * vol,
-                volume0: vol,
-                material: b.material_index as u32,
-                affine: grad,
-            });
+            particles.push_with(
+                ParticleInit {
+                    x,
+                    v: v0 + grad * (x - about),
+                    mass: rho * vol,
+                    volume0: vol,
+                    material: b.material_index as u32,
+                    affine: grad,
+                },
+                extra,
+            );
         }
         bodies.push(BodyInfo {
             name: b.name.clone(),
@@ -452,11 +542,13 @@ where
         }
         particles.volume0 = v;
     }
+    let dissolved = sc.dissolution.as_ref().map(|d| d.into_index);
     for (m, def) in sc.materials.iter().enumerate() {
-        if !particles.material.iter().any(|&i| i as usize == m) {
+        if Some(m) != dissolved && !particles.material.iter().any(|&i| i as usize == m) {
             warnings.push(format!("material \"{}\" is not used by any body", def.name));
         }
     }
+    warnings.extend(uncoupled_phases(sc));
     let solver = ExplicitSolver::new(
         spec,
         params::<D>(scene),
@@ -489,6 +581,24 @@ where
     })
 }
 
+/// A warning for each phase that no coupling joins to another: its bodies pass through the
+/// bodies of every other phase.
+fn uncoupled_phases(sc: &Scene) -> Vec<String> {
+    let count = sc.phase_count();
+    if count < 2 {
+        return Vec::new();
+    }
+    (0..count)
+        .filter(|k| !sc.couplings.iter().any(|c| c.phases.contains(k)))
+        .map(|k| {
+            format!(
+                "phase {k} is not coupled to any other phase ([[couplings]]): its bodies pass \
+                 through the other phases' bodies"
+            )
+        })
+        .collect()
+}
+
 /// Maps a solver set-up error to the scene key it comes from.
 fn setup_error(scene: &LoadedScene, bodies: &[BodyInfo], e: SetupError) -> SceneError {
     match &e {
@@ -512,6 +622,55 @@ fn setup_error(scene: &LoadedScene, bodies: &[BodyInfo], e: SetupError) -> Scene
                 .unwrap_or(0);
             scene.error(&format!("bodies[{body}]"), e.to_string())
         }
+        SetupError::InvalidSetting { setting, .. } => {
+            let key = match setting.strip_prefix("coupling ") {
+                Some(n) => format!("couplings[{n}]"),
+                None if setting == "phases" => "bodies".to_string(),
+                None => setting.clone(),
+            };
+            scene.error(&key, e.to_string())
+        }
         _ => scene.error("materials", e.to_string()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::CliError;
+    use crate::scene::parse;
+    use std::path::Path;
+
+    const SCENE: &str = "[simulation]\ndim = 2\nsteps = 1\n\n[grid]\nmin = [0.0, 0.0]\n\
+        max = [0.5, 0.5]\ndx = 0.05\n\n[[materials]]\nname = \"water\"\npreset = \"water\"\n\n\
+        [[bodies]]\nmaterial = \"water\"\nshape = \"box\"\nmin = [0.1, 0.1]\nmax = [0.2, 0.2]\n\n\
+        [[bodies]]\nmaterial = \"water\"\nphase = 1\nshape = \"box\"\nmin = [0.3, 0.1]\n\
+        max = [0.4, 0.2]\n\n[[couplings]]\nphases = [0, 1]\nkind = \"full\"\n";
+
+    #[test]
+    fn solver_settings_errors_are_bad_input_at_their_key() {
+        let scene = parse(Path::new("s.toml"), SCENE).expect("valid scene");
+        let line_of = |header: &str| SCENE.lines().position(|l| l == header).map(|i| i + 1);
+        for (setting, key, line) in [
+            ("coupling 0", "couplings[0]", line_of("[[couplings]]")),
+            ("mixing", "mixing", None),
+            ("phases", "bodies", line_of("[[bodies]]")),
+        ] {
+            let e = SetupError::InvalidSetting {
+                setting: setting.to_string(),
+                reason: "inconsistent".to_string(),
+            };
+            let err = setup_error(&scene, &[], e);
+            let text = err.to_string();
+            assert!(text.contains(&format!("`{key}`")), "{text}");
+            assert!(
+                text.contains(&format!("invalid {setting}: inconsistent")),
+                "{text}"
+            );
+            if let Some(line) = line {
+                assert!(text.contains(&format!("s.toml:{line}:")), "{text}");
+            }
+            assert_eq!(CliError::from(err).exit_code(), 2);
+        }
     }
 }

@@ -5,7 +5,7 @@ use crate::build::{build, AnyBuilt, Built};
 use crate::error::CliError;
 use crate::scene::{self, Duration, Interval, LoadedScene, TimeStepDef};
 use mpm_core::{Dim, DimOps, Material};
-use mpm_explicit::{Transfer, VolumeUpdate};
+use mpm_explicit::Transfer;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -50,13 +50,26 @@ where
         s.params.kernel
     );
     let _ = writeln!(o, "particles:  {}", s.particles.len());
-    for body in &b.bodies {
+    let phases = sc.phase_count();
+    for (body, def) in b.bodies.iter().zip(&sc.bodies) {
         let _ = writeln!(
             o,
-            "  body \"{}\": {} particles of \"{}\"",
+            "  body \"{}\": {} particles of \"{}\"{}",
             body.name,
             body.particles.len(),
-            body.material
+            body.material,
+            if phases > 1 {
+                format!(" in phase {}", def.phase)
+            } else {
+                String::new()
+            }
+        );
+    }
+    if phases > 1 {
+        let _ = writeln!(
+            o,
+            "phases:     {phases} grids, {} coupling(s)",
+            sc.couplings.len()
         );
     }
     for (def, m) in sc.materials.iter().zip(&s.materials) {
@@ -109,93 +122,71 @@ where
         .iter()
         .filter(|m| matches!(m, Material::Fluid(_)))
         .count();
-    let mut run: Vec<(String, String)> = Vec::new();
-    let mut skipped: Vec<(String, String)> = Vec::new();
-    let mut stage = |on: bool, name: &str, why: String| {
-        if on {
-            run.push((name.to_string(), why));
-        } else {
-            skipped.push((name.to_string(), why));
+    let nb = s.boundaries.colliders.len();
+    let boundaries = if s.boundaries.is_empty() {
+        "none: no walls or colliders".to_string()
+    } else {
+        format!(
+            "{}{nb} collider(s)",
+            match &s.boundaries.walls {
+                Some(w) => format!(
+                    "domain walls ({:?}, friction {}, {} node layers), ",
+                    w.contact.kind, w.contact.friction, w.thickness
+                ),
+                None => String::new(),
+            }
+        )
+    };
+    let mut g2p = "velocity, affine C, F or J update, advection".to_string();
+    if !plastic.is_empty() {
+        let _ = write!(
+            g2p,
+            "; plasticity: return mapping for {}",
+            plastic.join(", ")
+        );
+    }
+    if let Some(w) = s.params.soft_walls {
+        let _ = write!(
+            g2p,
+            "; soft walls: margin {} m, look-ahead {} s",
+            w.margin, w.lookahead
+        );
+    }
+    // The solver's own plan lists only the stages this scene runs; the CLI adds details.
+    let detail = |stage: &str| -> Option<String> {
+        match stage {
+            "time_step" => Some(dt_text.clone()),
+            "sort" => Some("bin particles into grid blocks".into()),
+            "grid velocities and gravity" => {
+                Some(format!("gravity {:?} m/s^2", s.params.gravity.as_slice()))
+            }
+            "boundaries" => Some(boundaries.clone()),
+            "g2p" => Some(g2p.clone()),
+            "commit" => Some("write checked updates".into()),
+            st if st.starts_with("volume re-estimation") => Some(format!(
+                "J of {fluids} fluid material(s) from the grid density"
+            )),
+            st if st.starts_with("p2g") => Some(format!(
+                "{} transfer, MLS stress",
+                match s.params.transfer {
+                    Transfer::Apic => "APIC".to_string(),
+                    Transfer::Pic => "PIC".to_string(),
+                    Transfer::Flip { blend } => format!("FLIP {blend}"),
+                }
+            )),
+            _ => None,
         }
     };
-    stage(true, "time_step", dt_text);
-    stage(true, "sort", "bin particles into grid blocks".into());
-    let reestimate = s.params.volume == VolumeUpdate::Reestimate;
-    stage(
-        reestimate,
-        "volume",
-        if reestimate {
-            format!("re-estimate J of {fluids} fluid material(s) from the grid density")
-        } else {
-            "volume_update = \"deformation\"".into()
-        },
-    );
-    stage(
-        true,
-        "p2g",
-        format!(
-            "{} transfer, MLS stress",
-            match s.params.transfer {
-                Transfer::Apic => "APIC".to_string(),
-                Transfer::Pic => "PIC".to_string(),
-                Transfer::Flip { blend } => format!("FLIP {blend}"),
-            }
-        ),
-    );
-    stage(
-        true,
-        "grid_update",
-        format!("gravity {:?} m/s^2", s.params.gravity.as_slice()),
-    );
-    let nb = s.boundaries.colliders.len();
-    stage(
-        !s.boundaries.is_empty(),
-        "boundaries",
-        if s.boundaries.is_empty() {
-            "no walls or colliders".into()
-        } else {
-            format!(
-                "{}{nb} collider(s)",
-                match &s.boundaries.walls {
-                    Some(w) => format!(
-                        "domain walls ({:?}, friction {}, {} node layers), ",
-                        w.contact.kind, w.contact.friction, w.thickness
-                    ),
-                    None => String::new(),
-                }
-            )
-        },
-    );
-    stage(
-        true,
-        "g2p",
-        "velocity, affine C, F or J update, advection".into(),
-    );
-    stage(
-        !plastic.is_empty(),
-        "plasticity",
-        if plastic.is_empty() {
-            "no plastic material".into()
-        } else {
-            format!("return mapping in G2P for {}", plastic.join(", "))
-        },
-    );
-    stage(
-        s.params.soft_walls.is_some(),
-        "soft_walls",
-        match s.params.soft_walls {
-            Some(w) => format!("margin {} m, look-ahead {} s", w.margin, w.lookahead),
-            None => "not enabled".into(),
-        },
-    );
-    stage(true, "commit", "write checked updates".into());
     let _ = writeln!(o, "stages each step:");
-    for (i, (name, why)) in run.iter().enumerate() {
-        let _ = writeln!(o, "  {:>2}. {name:<12} {why}", i + 1);
-    }
-    let _ = writeln!(o, "stages skipped:");
-    for (name, why) in &skipped {
-        let _ = writeln!(o, "      {name:<12} {why}");
+    for (i, stage) in s.stage_plan().iter().enumerate() {
+        match detail(stage) {
+            Some(d) => {
+                let _ = writeln!(o, "  {:>2}. {stage} — {d}", i + 1);
+            }
+            None => {
+                let _ = writeln!(o, "  {:>2}. {stage}", i + 1);
+            }
+        }
     }
     let stop = match sc.simulation.duration {
         Duration::EndTime { end_time } => format!("at t = {end_time} s"),

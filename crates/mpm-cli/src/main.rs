@@ -61,13 +61,17 @@ enum Command {
         /// Render every frame.
         #[arg(long)]
         all: bool,
-        /// Field to colour by: material, speed, or any field in the snapshot (default: material
-        /// when several materials exist, else speed).
+        /// Field to colour by: material, phase, speed, or any field in the snapshot, e.g. phi_eff
+        /// or concentration (default: material when several materials exist, else speed).
         #[arg(long)]
         color_by: Option<String>,
         /// Image width in pixels.
         #[arg(long, default_value_t = 800)]
         width: usize,
+        /// Colour only the particles of this material (repeatable); the others are drawn in
+        /// light grey beneath them.
+        #[arg(long, value_name = "MATERIAL")]
+        only: Vec<String>,
     },
 }
 
@@ -100,6 +104,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             all,
             color_by,
             width,
+            only,
         } => {
             let files = mpm_cli::render::render(&RenderOptions {
                 dir,
@@ -107,6 +112,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                 all,
                 color_by,
                 width,
+                only,
             })?;
             for f in files {
                 println!("{}", f.display());

@@ -5,9 +5,11 @@
 //! and shaded by depth. Each particle is a small disc coloured by a field: material
 //! (categorical, with a legend), or any other field on a viridis colour bar (vectors by their
 //! length, `F` by its determinant, other matrices by their Frobenius norm; `speed` is |v|).
-//! The default is `material` when several materials are present, else `speed`. Colliders of
-//! the scene stored in the snapshot are drawn in grey (in 3D, their cross-section through the
-//! collider's centre).
+//! The default is `material` when several materials are present, else `speed`; `phase` is
+//! categorical too, and the fractions `phi_eff` and `concentration` use the fixed range [0, 1].
+//! With `--only`, particles of the other materials are drawn first, in light grey, and only the
+//! chosen materials are coloured (useful when phases overlap). Colliders of the scene stored in
+//! the snapshot are drawn in grey (in 3D, their cross-section through the collider's centre).
 
 use crate::error::CliError;
 use crate::font::{draw_text, text_width};
@@ -30,6 +32,9 @@ pub struct RenderOptions {
     pub color_by: Option<String>,
     /// Image width in pixels.
     pub width: usize,
+    /// Colour only the particles of these materials (by name); the others are drawn in grey
+    /// beneath them. Empty: colour every particle.
+    pub only: Vec<String>,
 }
 
 /// An RGB image.
@@ -152,13 +157,20 @@ fn shade(c: [u8; 3], f: f64) -> [u8; 3] {
     c.map(|v| (v as f64 * f).round().clamp(0.0, 255.0) as u8)
 }
 
-/// One frame's particles: positions (as 3-vectors) and colour values.
+/// One frame's particles: positions (as 3-vectors), colour values, and which are coloured.
 struct Frame {
     number: u64,
     snap: Snapshot,
     pos: Vec<[f64; 3]>,
     values: Vec<f64>,
+    coloured: Vec<bool>,
 }
+
+/// Fields whose values are fractions in [0, 1], drawn on that fixed range.
+const FRACTIONS: [&str; 2] = ["phi_eff", "concentration"];
+
+/// Fields drawn with categorical colours and a legend.
+const CATEGORICAL: [&str; 2] = ["material", "phase"];
 
 fn field_f64<'a>(s: &'a Snapshot, name: &str) -> Option<(&'a [f64], &'a [usize])> {
     match &s.field(name)?.data {
@@ -263,6 +275,7 @@ pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
             snap,
             pos,
             values: Vec::new(),
+            coloured: Vec::new(),
         });
     }
     let field = opts.color_by.clone().unwrap_or_else(|| {
@@ -276,12 +289,6 @@ pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
             "speed".into()
         }
     });
-    let mut unit = String::new();
-    for f in &mut frames {
-        let (v, u) = values_of(&f.snap, &field).map_err(|e| bad(e.to_string()))?;
-        f.values = v;
-        unit = u;
-    }
     let first = &frames[0].snap;
     let dim = first.header.dim as usize;
     // The scene stored in the file gives the domain and the material names.
@@ -300,6 +307,31 @@ pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
         .as_ref()
         .map(|s| s.scene.materials.iter().map(|m| m.name.clone()).collect())
         .unwrap_or_default();
+    let mut only = Vec::new();
+    for name in &opts.only {
+        match material_names.iter().position(|m| m == name) {
+            Some(k) => only.push(k as u32),
+            None => {
+                return Err(bad(format!(
+                    "--only: no material \"{name}\" in the scene (materials: {})",
+                    material_names.join(", ")
+                )))
+            }
+        }
+    }
+    let mut unit = String::new();
+    for f in &mut frames {
+        let (v, u) = values_of(&f.snap, &field).map_err(|e| bad(e.to_string()))?;
+        f.values = v;
+        unit = u;
+        f.coloured = match (only.is_empty(), f.snap.field("material").map(|m| &m.data)) {
+            (false, Some(Data::U32 { values, .. })) if values.len() == f.pos.len() => {
+                values.iter().map(|m| only.contains(m)).collect()
+            }
+            (false, _) => return Err(bad("--only needs the field `material`".into())),
+            (true, _) => vec![true; f.pos.len()],
+        };
+    }
     let (lo, hi) = match &stored {
         Some(s) => {
             let g = &s.scene.grid;
@@ -323,17 +355,17 @@ pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
             (lo, hi)
         }
     };
-    let categorical = field == "material";
+    let categorical = CATEGORICAL.contains(&field.as_str());
     let (mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY);
     for f in &frames {
-        for &v in &f.values {
+        for (&v, _) in f.values.iter().zip(&f.coloured).filter(|(_, c)| **c) {
             if v.is_finite() {
                 vmin = vmin.min(v);
                 vmax = vmax.max(v);
             }
         }
     }
-    if vmin > vmax || vmin.is_nan() || vmax.is_nan() {
+    if vmin > vmax || vmin.is_nan() || vmax.is_nan() || FRACTIONS.contains(&field.as_str()) {
         (vmin, vmax) = (0.0, 1.0);
     }
     let out_dir = opts.dir.join("render");
@@ -456,16 +488,19 @@ fn draw_frame(
         })
         .unwrap_or((view.hi[0] - view.lo[0]) / 200.0);
     let r = (0.75 * spacing * view.scale).clamp(1.0, 6.0);
-    // Painter's order: far (small z) first.
+    // Painter's order: particles not coloured (`--only`) first, then far (small z) first.
     let mut order: Vec<usize> = (0..f.pos.len()).collect();
     let (zlo, zhi) = (view.lo[2], view.hi[2]);
     if dim == 3 {
         order.sort_by(|&a, &b| f.pos[a][2].total_cmp(&f.pos[b][2]));
     }
+    order.sort_by_key(|&p| f.coloured[p]);
     let range = (vmax - vmin).max(1e-300);
     for &p in &order {
         let v = f.values[p];
-        let mut c = if categorical {
+        let mut c = if !f.coloured[p] {
+            [200, 200, 200]
+        } else if categorical {
             PALETTE[(v.max(0.0) as usize) % PALETTE.len()]
         } else {
             viridis((v - vmin) / range)
@@ -492,14 +527,23 @@ fn draw_frame(
     let ly = view.top + view.plot_h + 12;
     if categorical {
         let mut x = view.margin;
-        let mut ids: Vec<u64> = f.values.iter().map(|v| v.max(0.0) as u64).collect();
+        let mut ids: Vec<u64> = f
+            .values
+            .iter()
+            .zip(&f.coloured)
+            .filter(|(_, c)| **c)
+            .map(|(v, _)| v.max(0.0) as u64)
+            .collect();
         ids.sort_unstable();
         ids.dedup();
         for id in ids {
-            let name = material_names
-                .get(id as usize)
-                .cloned()
-                .unwrap_or_else(|| format!("material {id}"));
+            let name = match field {
+                "material" => material_names
+                    .get(id as usize)
+                    .cloned()
+                    .unwrap_or_else(|| format!("material {id}")),
+                _ => format!("{field} {id}"),
+            };
             img.rect(x, ly, x + 14, ly + 14, PALETTE[id as usize % PALETTE.len()]);
             img.text(&name, x + 20, ly + 2, 2, ink);
             x += 20 + text_width(&name, 2) + 20;

@@ -10,7 +10,8 @@
 use crate::error::{CliError, Diagnostic, SceneError};
 use crate::span::SpanIndex;
 use mpm_core::material::{
-    DruckerPrager, ElasticModel, FluidMaterial, Lame, Plasticity, Snow, SolidMaterial, Tait,
+    DruckerPrager, ElasticModel, FluidMaterial, Lame, Parameter, Plasticity, Snow, SolidMaterial,
+    Tait,
 };
 use mpm_core::{Columns, Material};
 use serde::{Deserialize, Serialize};
@@ -186,6 +187,62 @@ pub enum ContactName {
     Separate,
 }
 
+/// How the grids of two phases exchange momentum (multigrid paper §4.1–4.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CouplingName {
+    /// Single-grid coupling: both phases take the mass-weighted mean velocity.
+    Full,
+    /// Drag (Eqs. 14, 17).
+    Drag,
+    /// Contact with normal share β and friction δ (Eqs. 24–30).
+    Contact,
+}
+
+/// Tangential force rule of a contact coupling.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FrictionModel {
+    /// Coulomb cone (Eq. 30): the tangential force is at most δ times the normal force.
+    Coulomb,
+    /// The tangential force is δ times the tangential collision force.
+    Proportional,
+}
+
+/// When a contact coupling applies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ApplyName {
+    /// Only where the phases approach each other along the interface normal.
+    OnApproach,
+    /// At every node where both phases have mass.
+    Always,
+}
+
+/// Update rules of the effective volume fraction φ_eff.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PhiEffRule {
+    /// φ_eff = φ.
+    Current,
+    /// Eq. 21: φ_eff ← max(φ_eff, φ).
+    Max,
+    /// Eq. 22: φ_eff ← (1 − α) φ_eff + α φ, α = min(1, rate·dt).
+    Relax,
+    /// Eq. 36: φ_eff ← max(φ_eff, (1 − α) φ_eff + α φ).
+    MaxRelax,
+}
+
+/// Discretisations of the concentration Laplacian.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SchemeName {
+    /// Galerkin form with kernel gradients (conservative).
+    KernelGradient,
+    /// The paper's MLS difference form (Eqs. 34–35).
+    MlsDifference,
+}
+
 /// A number or a list of numbers (mesh scale, angular velocity).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
@@ -211,6 +268,11 @@ struct RawScene {
     bodies: Vec<RawBody>,
     #[serde(default)]
     boundaries: Vec<RawBoundary>,
+    #[serde(default)]
+    couplings: Vec<RawCoupling>,
+    porous: Option<RawPorous>,
+    mixing: Option<RawMixing>,
+    dissolution: Option<RawDissolution>,
     output: Option<RawOutput>,
     checkpoint: Option<RawCheckpoint>,
 }
@@ -303,6 +365,8 @@ struct RawBody {
     velocity_gradient: Option<Vec<Vec<f64>>>,
     angular_velocity: Option<NumberOrList>,
     about: Option<Vec<f64>>,
+    initial_phi_eff: Option<f64>,
+    concentration: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -320,6 +384,59 @@ struct RawBoundary {
     max: Option<Vec<f64>>,
     center: Option<Vec<f64>>,
     radius: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCoupling {
+    phases: Vec<u32>,
+    kind: CouplingName,
+    coefficient: Option<f64>,
+    porosity: Option<f64>,
+    conductivity: Option<f64>,
+    normal_share: Option<f64>,
+    friction: Option<f64>,
+    friction_model: Option<FrictionModel>,
+    apply: Option<ApplyName>,
+    buoyancy: Option<f64>,
+    pressure_buoyancy: Option<bool>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPorous {
+    phi_eff: Option<PhiEffRule>,
+    rate: Option<f64>,
+    initial_phi_eff: Option<f64>,
+    #[serde(default)]
+    interactions: Vec<RawInteraction>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawInteraction {
+    material: String,
+    parameter: Parameter,
+    offset: Option<f64>,
+    slope: Option<f64>,
+    exponent: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMixing {
+    fluids: Vec<String>,
+    diffusivity: Option<f64>,
+    scheme: Option<SchemeName>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawDissolution {
+    solid: String,
+    into: String,
+    rate: Option<f64>,
+    fluid_phase: Option<u32>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -357,6 +474,18 @@ pub struct Scene {
     /// `[[boundaries]]`.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub boundaries: Vec<BoundaryDef>,
+    /// `[[couplings]]` between phase grids.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub couplings: Vec<CouplingDef>,
+    /// `[porous]`, if the scene has porous interaction.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub porous: Option<PorousDef>,
+    /// `[mixing]`, if two fluids mix.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mixing: Option<MixingDef>,
+    /// `[dissolution]`, if a solid dissolves.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dissolution: Option<DissolutionDef>,
     /// `[output]`.
     pub output: OutputDef,
     /// `[checkpoint]`, if checkpoints are written.
@@ -609,7 +738,7 @@ pub struct BodyDef {
     /// Index of the material in `Scene::materials`.
     #[serde(skip)]
     pub material_index: usize,
-    /// Phase (grid) the body lives on; only 0 exists for now.
+    /// Phase (grid) the body lives on.
     pub phase: u32,
     /// Shape.
     #[serde(flatten)]
@@ -628,6 +757,13 @@ pub struct BodyDef {
     /// Reference point of the affine or rotational field (m).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub about: Option<Vec<f64>>,
+    /// Initial effective volume fraction φ_eff (dimensionless; with `[porous]` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub initial_phi_eff: Option<f64>,
+    /// Initial concentration α of the second mixing fluid, or initial dissolution progress of
+    /// the dissolving solid (dimensionless; with `[mixing]` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub concentration: Option<f64>,
 }
 
 /// A body shape with its parameters.
@@ -744,6 +880,150 @@ pub enum BoundaryGeometry {
     },
 }
 
+/// One `[[couplings]]` entry: how the grids of two phases exchange momentum.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CouplingDef {
+    /// The two phases `[a, b]`; for permeability drag and pore-pressure buoyancy, `b` is the
+    /// fluid.
+    pub phases: [u32; 2],
+    /// Kind and parameters.
+    #[serde(flatten)]
+    pub kind: CouplingKindDef,
+    /// Buoyancy penalty strength c_b (dimensionless; Eq. 32), if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub buoyancy: Option<f64>,
+    /// The pore-pressure buoyancy term of Eq. 15 (unstable in many set-ups).
+    pub pressure_buoyancy: bool,
+}
+
+/// Coupling kinds with their parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum CouplingKindDef {
+    /// Single-grid coupling.
+    Full,
+    /// Drag (Eq. 14), clamped to full coupling (Eq. 17).
+    Drag(DragDef),
+    /// Contact (Eqs. 24–30).
+    Contact(ContactDef),
+}
+
+/// The drag coefficient c_E of Eq. 14.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum DragDef {
+    /// Given directly.
+    Coefficient {
+        /// c_E (1/(kg·s)).
+        coefficient: f64,
+    },
+    /// From porosity and hydraulic conductivity (Tampubolon et al. 2017).
+    Permeability {
+        /// Porosity n ∈ (0, 1].
+        porosity: f64,
+        /// Hydraulic conductivity k (m/s).
+        conductivity: f64,
+    },
+}
+
+/// Parameters of a contact coupling.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ContactDef {
+    /// Normal share β ∈ [0, 1].
+    pub normal_share: f64,
+    /// Friction δ ≥ 0.
+    pub friction: f64,
+    /// Tangential force rule.
+    pub friction_model: FrictionModel,
+    /// When the force applies.
+    pub apply: ApplyName,
+}
+
+/// `[porous]`: the effective volume fraction and the parameters it scales.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PorousDef {
+    /// Update rule of φ_eff.
+    #[serde(flatten)]
+    pub phi_eff: PhiEffDef,
+    /// Initial φ_eff of bodies that do not set their own (dimensionless).
+    pub initial_phi_eff: f64,
+    /// `[[porous.interactions]]`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub interactions: Vec<InteractionDef>,
+}
+
+/// Update rules of φ_eff with their parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "phi_eff", rename_all = "snake_case")]
+pub enum PhiEffDef {
+    /// φ_eff = φ.
+    Current,
+    /// Eq. 21.
+    Max,
+    /// Eq. 22.
+    Relax {
+        /// Relaxation rate (1/s); α = min(1, rate·dt).
+        rate: f64,
+    },
+    /// Eq. 36.
+    MaxRelax {
+        /// Relaxation rate (1/s); α = min(1, rate·dt).
+        rate: f64,
+    },
+}
+
+/// One `[[porous.interactions]]` entry: `parameter` of `material` is multiplied by
+/// `max(0, offset + slope·φ_eff^exponent)`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct InteractionDef {
+    /// Material name.
+    pub material: String,
+    /// Index of the material in `Scene::materials`.
+    #[serde(skip)]
+    pub material_index: usize,
+    /// The scaled parameter.
+    pub parameter: Parameter,
+    /// Factor at φ_eff = 0 (dimensionless).
+    pub offset: f64,
+    /// Change of the factor between φ_eff = 0 and 1 (dimensionless).
+    pub slope: f64,
+    /// Exponent of φ_eff (dimensionless, > 0).
+    pub exponent: f64,
+}
+
+/// `[mixing]`: two miscible fluids of one phase.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MixingDef {
+    /// The two fluid material names; the concentration α is the fraction of the second.
+    pub fluids: [String; 2],
+    /// Their indices in `Scene::materials`.
+    #[serde(skip)]
+    pub fluid_indices: [usize; 2],
+    /// Diffusion coefficient k_d (m²/s).
+    pub diffusivity: f64,
+    /// Discretisation of the Laplacian.
+    pub scheme: SchemeName,
+}
+
+/// `[dissolution]`: a solid dissolving into the second mixing fluid.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DissolutionDef {
+    /// The dissolving solid material.
+    pub solid: String,
+    /// Its index in `Scene::materials`.
+    #[serde(skip)]
+    pub solid_index: usize,
+    /// The fluid material it becomes (the second mixing fluid).
+    pub into: String,
+    /// Its index in `Scene::materials`.
+    #[serde(skip)]
+    pub into_index: usize,
+    /// Dissolution rate (1/s).
+    pub rate: f64,
+    /// The phase of the solvent fluid.
+    pub fluid_phase: u32,
+}
+
 /// An output or checkpoint interval.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(untagged)]
@@ -822,7 +1102,7 @@ impl LoadedScene {
 
     /// The particle columns this scene needs.
     pub fn columns(&self) -> Columns {
-        Columns::for_materials(&self.materials())
+        self.scene.columns()
     }
 }
 
@@ -979,7 +1259,7 @@ fn resolve(c: &mut Checker<'_>, raw: RawScene, path: &Path) -> Option<Scene> {
         }
     }
     let base = path.parent().unwrap_or(Path::new("."));
-    let bodies: Vec<BodyDef> = raw
+    let mut bodies: Vec<BodyDef> = raw
         .bodies
         .iter()
         .enumerate()
@@ -1015,7 +1295,35 @@ fn resolve(c: &mut Checker<'_>, raw: RawScene, path: &Path) -> Option<Scene> {
         );
     }
     let core: Vec<Material> = materials.iter().map(|m| m.model.material()).collect();
-    let columns = Columns::for_materials(&core);
+    let phases = phase_count(&bodies);
+    check_phases(c, &bodies, phases, &grid);
+    let couplings = resolve_couplings(c, &raw.couplings, &bodies, &core, phases);
+    let porous = raw
+        .porous
+        .as_ref()
+        .map(|p| resolve_porous(c, p, &materials, &core, phases));
+    let mixing = raw
+        .mixing
+        .as_ref()
+        .map(|m| resolve_mixing(c, m, &materials, &bodies, grid.kernel));
+    let dissolution = raw
+        .dissolution
+        .as_ref()
+        .map(|x| resolve_dissolution(c, x, &materials, mixing.as_ref(), &bodies, phases));
+    resolve_body_state(
+        c,
+        &raw.bodies,
+        &mut bodies,
+        porous.as_ref(),
+        mixing.as_ref(),
+        dissolution.as_ref(),
+    );
+    let columns = columns_for(
+        &core,
+        phases,
+        porous.is_some(),
+        mixing.is_some() || dissolution.is_some(),
+    );
     let has_fluid = core.iter().any(|m| matches!(m, Material::Fluid(_)));
     let stem = path
         .file_stem()
@@ -1035,9 +1343,648 @@ fn resolve(c: &mut Checker<'_>, raw: RawScene, path: &Path) -> Option<Scene> {
         materials,
         bodies,
         boundaries,
+        couplings,
+        porous,
+        mixing,
+        dissolution,
         output,
         checkpoint,
     })
+}
+
+/// Largest number of phases (grids) a scene may have.
+pub const MAX_PHASES: u32 = 16;
+
+/// Number of phases of `bodies`: one more than the largest phase.
+fn phase_count(bodies: &[BodyDef]) -> u32 {
+    bodies
+        .iter()
+        .map(|b| b.phase)
+        .max()
+        .map_or(1, |k| k.saturating_add(1))
+}
+
+/// The particle columns of a scene with `materials`, `phases` phases, and porous interaction
+/// and concentrations when `porous` and `concentration`.
+fn columns_for(materials: &[Material], phases: u32, porous: bool, concentration: bool) -> Columns {
+    Columns {
+        phase: phases > 1,
+        volume_fraction: porous,
+        concentration,
+        ..Columns::for_materials(materials)
+    }
+}
+
+/// Phases are numbered 0, 1, … without gaps, and all their grids fit in memory.
+fn check_phases(c: &mut Checker<'_>, bodies: &[BodyDef], phases: u32, grid: &Grid) {
+    for k in 0..phases {
+        if !bodies.iter().any(|b| b.phase == k) {
+            if let Some(i) = bodies.iter().position(|b| b.phase > k) {
+                c.err(
+                    &format!("bodies[{i}].phase"),
+                    format!("phases are numbered from 0 without gaps, but no body is in phase {k}"),
+                );
+            }
+            break;
+        }
+    }
+    if phases > 1 && grid.min.len() == grid.max.len() && grid.dx > 0.0 {
+        let nodes: f64 = grid
+            .min
+            .iter()
+            .zip(&grid.max)
+            .map(|(lo, hi)| ((hi - lo) / grid.dx).abs().ceil() + 1.0)
+            .product();
+        let total = nodes * phases as f64;
+        if total > MAX_GRID_NODES {
+            c.err(
+                "grid.dx",
+                format!(
+                    "{phases} phase grids would have {total:.3e} nodes in all (limit \
+                     {MAX_GRID_NODES:.0e}): increase dx or shrink the domain"
+                ),
+            );
+        }
+    }
+}
+
+/// The index of material `name`, or an error at `key` listing the materials.
+fn material_index(
+    c: &mut Checker<'_>,
+    key: &str,
+    name: &str,
+    materials: &[MaterialDef],
+) -> Option<usize> {
+    let found = materials.iter().position(|m| m.name == name);
+    if found.is_none() {
+        let names: Vec<_> = materials
+            .iter()
+            .map(|m| format!("\"{}\"", m.name))
+            .collect();
+        c.err(
+            key,
+            format!(
+                "unknown material \"{name}\" (defined: {})",
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                }
+            ),
+        );
+    }
+    found
+}
+
+fn is_fluid(m: &MaterialDef) -> bool {
+    matches!(m.model, ModelDef::Tait(_))
+}
+
+fn resolve_couplings(
+    c: &mut Checker<'_>,
+    raw: &[RawCoupling],
+    bodies: &[BodyDef],
+    materials: &[Material],
+    phases: u32,
+) -> Vec<CouplingDef> {
+    let out: Vec<CouplingDef> = raw
+        .iter()
+        .enumerate()
+        .map(|(i, r)| resolve_coupling(c, i, r, bodies, materials, phases))
+        .collect();
+    for (i, a) in out.iter().enumerate() {
+        let pair = |x: &CouplingDef| {
+            let [p, q] = x.phases;
+            (p.min(q), p.max(q))
+        };
+        if let Some(j) = out[..i].iter().position(|b| pair(b) == pair(a)) {
+            c.err(
+                &format!("couplings[{i}].phases"),
+                format!(
+                    "phases {} and {} are already coupled by couplings[{j}]",
+                    a.phases[0], a.phases[1]
+                ),
+            );
+        }
+    }
+    out
+}
+
+fn resolve_coupling(
+    c: &mut Checker<'_>,
+    i: usize,
+    r: &RawCoupling,
+    bodies: &[BodyDef],
+    materials: &[Material],
+    phases: u32,
+) -> CouplingDef {
+    let k = |name: &str| format!("couplings[{i}].{name}");
+    let pair = match r.phases.as_slice() {
+        &[a, b] => {
+            if a == b {
+                c.err(
+                    &k("phases"),
+                    format!("the two phases must differ (got [{a}, {b}])"),
+                );
+            }
+            for (j, p) in [a, b].into_iter().enumerate() {
+                if p >= phases {
+                    c.err(
+                        &k(&format!("phases[{j}]")),
+                        format!(
+                            "no body is in phase {p} (the bodies' phases are 0..={})",
+                            phases - 1
+                        ),
+                    );
+                }
+            }
+            Some([a, b])
+        }
+        other => {
+            c.err(
+                &k("phases"),
+                format!(
+                    "must be two phase numbers [a, b], got {} number(s)",
+                    other.len()
+                ),
+            );
+            None
+        }
+    };
+    let kind_name = serde_plain(&r.kind);
+    let present = [
+        ("coefficient", r.coefficient.is_some()),
+        ("porosity", r.porosity.is_some()),
+        ("conductivity", r.conductivity.is_some()),
+        ("normal_share", r.normal_share.is_some()),
+        ("friction", r.friction.is_some()),
+        ("friction_model", r.friction_model.is_some()),
+        ("apply", r.apply.is_some()),
+    ];
+    let used: &[&str] = match r.kind {
+        CouplingName::Full => &[],
+        CouplingName::Drag => &["coefficient", "porosity", "conductivity"],
+        CouplingName::Contact => &["normal_share", "friction", "friction_model", "apply"],
+    };
+    for (key, p) in present {
+        if !used.contains(&key) {
+            c.not_applicable(&k(key), p, &format!("to kind = \"{kind_name}\""));
+        }
+    }
+    // Phase b of a permeability drag or of pore-pressure buoyancy is the fluid.
+    let fluid_b = |c: &mut Checker<'_>, key: &str, what: &str| {
+        let Some([_, b]) = pair else { return };
+        let solid = bodies.iter().find(|body| {
+            body.phase == b
+                && !matches!(materials.get(body.material_index), Some(Material::Fluid(_)))
+        });
+        if let Some(body) = solid {
+            c.err(
+                key,
+                format!(
+                    "{what} takes phase b = {b} as the fluid, but body \"{}\" in phase {b} is \
+                     of the solid \"{}\" (write the fluid's phase second in `phases`)",
+                    body.name, body.material
+                ),
+            );
+        }
+    };
+    let kind = match r.kind {
+        CouplingName::Full => CouplingKindDef::Full,
+        CouplingName::Drag => {
+            let drag = match (r.coefficient, r.porosity, r.conductivity) {
+                (Some(ce), None, None) => DragDef::Coefficient {
+                    coefficient: c.non_negative(&k("coefficient"), ce),
+                },
+                (None, Some(n), Some(cond)) => {
+                    let porosity = c.num(
+                        &k("porosity"),
+                        n,
+                        |x| x > 0.0 && x <= 1.0,
+                        "must lie in (0, 1]",
+                    );
+                    let conductivity = c.positive(&k("conductivity"), cond);
+                    fluid_b(c, &k("phases"), "permeability drag");
+                    DragDef::Permeability {
+                        porosity,
+                        conductivity,
+                    }
+                }
+                (Some(_), _, _) => {
+                    c.err(
+                        &k("coefficient"),
+                        "give either `coefficient` or `porosity` and `conductivity`, not both",
+                    );
+                    DragDef::Coefficient { coefficient: 0.0 }
+                }
+                (None, None, None) => {
+                    c.err(
+                        &k("kind"),
+                        "missing key: kind = \"drag\" needs `coefficient` (1/(kg·s)), or \
+                         `porosity` and `conductivity` (m/s)",
+                    );
+                    DragDef::Coefficient { coefficient: 0.0 }
+                }
+                (None, Some(_), None) => {
+                    c.err(
+                        &k("conductivity"),
+                        "missing key: `porosity` goes with `conductivity` (m/s)",
+                    );
+                    DragDef::Coefficient { coefficient: 0.0 }
+                }
+                (None, None, Some(_)) => {
+                    c.err(
+                        &k("porosity"),
+                        "missing key: `conductivity` goes with `porosity` (0, 1]",
+                    );
+                    DragDef::Coefficient { coefficient: 0.0 }
+                }
+            };
+            CouplingKindDef::Drag(drag)
+        }
+        CouplingName::Contact => CouplingKindDef::Contact(ContactDef {
+            normal_share: c.num(
+                &k("normal_share"),
+                r.normal_share.unwrap_or(1.0),
+                |x| (0.0..=1.0).contains(&x),
+                "must lie in [0, 1]",
+            ),
+            friction: c.non_negative(&k("friction"), r.friction.unwrap_or(0.0)),
+            friction_model: r.friction_model.unwrap_or(FrictionModel::Coulomb),
+            apply: r.apply.unwrap_or(ApplyName::OnApproach),
+        }),
+    };
+    let pressure_buoyancy = r.pressure_buoyancy.unwrap_or(false);
+    if pressure_buoyancy {
+        fluid_b(
+            c,
+            &k("pressure_buoyancy"),
+            "pore-pressure buoyancy (Eq. 15)",
+        );
+    }
+    CouplingDef {
+        phases: pair.unwrap_or([0, 1]),
+        kind,
+        buoyancy: r.buoyancy.map(|b| c.non_negative(&k("buoyancy"), b)),
+        pressure_buoyancy,
+    }
+}
+
+/// Every parameter a porous interaction can scale.
+const PARAMETERS: [Parameter; 8] = [
+    Parameter::YoungsModulus,
+    Parameter::Cohesion,
+    Parameter::FrictionAngle,
+    Parameter::CriticalCompression,
+    Parameter::CriticalStretch,
+    Parameter::Hardening,
+    Parameter::Viscosity,
+    Parameter::BulkModulus,
+];
+
+fn resolve_porous(
+    c: &mut Checker<'_>,
+    p: &RawPorous,
+    materials: &[MaterialDef],
+    core: &[Material],
+    phases: u32,
+) -> PorousDef {
+    if phases < 2 {
+        c.err(
+            "porous",
+            "porous interaction needs at least two phases: put the fluid's bodies in another \
+             phase (`phase = 1`) and couple them",
+        );
+    }
+    let rule = p.phi_eff.unwrap_or(PhiEffRule::Current);
+    let rate = |c: &mut Checker<'_>| c.non_negative("porous.rate", p.rate.unwrap_or(1.0));
+    let phi_eff = match rule {
+        PhiEffRule::Current | PhiEffRule::Max => {
+            c.not_applicable(
+                "porous.rate",
+                p.rate.is_some(),
+                &format!("to phi_eff = \"{}\"", serde_plain(&rule)),
+            );
+            if rule == PhiEffRule::Current {
+                PhiEffDef::Current
+            } else {
+                PhiEffDef::Max
+            }
+        }
+        PhiEffRule::Relax => PhiEffDef::Relax { rate: rate(c) },
+        PhiEffRule::MaxRelax => PhiEffDef::MaxRelax { rate: rate(c) },
+    };
+    let initial_phi_eff = c.num(
+        "porous.initial_phi_eff",
+        p.initial_phi_eff.unwrap_or(0.0),
+        |x| (0.0..=1.0).contains(&x),
+        "must lie in [0, 1]",
+    );
+    let interactions = p
+        .interactions
+        .iter()
+        .enumerate()
+        .map(|(j, it)| {
+            let k = |name: &str| format!("porous.interactions[{j}].{name}");
+            let index = material_index(c, &k("material"), &it.material, materials);
+            if let Some(m) = index.and_then(|i| core.get(i)) {
+                if !it.parameter.applies_to(m) {
+                    let has: Vec<String> = PARAMETERS
+                        .iter()
+                        .filter(|q| q.applies_to(m))
+                        .map(|q| format!("\"{}\"", serde_plain(q)))
+                        .collect();
+                    c.err(
+                        &k("parameter"),
+                        format!(
+                            "material \"{}\" has no parameter \"{}\" (it has: {})",
+                            it.material,
+                            serde_plain(&it.parameter),
+                            has.join(", ")
+                        ),
+                    );
+                }
+            }
+            let finite = |c: &mut Checker<'_>, key: &str, v: f64| {
+                c.num(key, v, |_| true, "must be a finite number")
+            };
+            let slope = match it.slope {
+                Some(s) => finite(c, &k("slope"), s),
+                None => {
+                    c.err(
+                        &k("slope"),
+                        "missing key: the factor is offset + slope·phi_eff^exponent",
+                    );
+                    0.0
+                }
+            };
+            InteractionDef {
+                material: it.material.clone(),
+                material_index: index.unwrap_or(0),
+                parameter: it.parameter,
+                offset: finite(c, &k("offset"), it.offset.unwrap_or(1.0)),
+                slope,
+                exponent: c.positive(&k("exponent"), it.exponent.unwrap_or(1.0)),
+            }
+        })
+        .collect();
+    PorousDef {
+        phi_eff,
+        initial_phi_eff,
+        interactions,
+    }
+}
+
+fn resolve_mixing(
+    c: &mut Checker<'_>,
+    m: &RawMixing,
+    materials: &[MaterialDef],
+    bodies: &[BodyDef],
+    kernel: KernelKind,
+) -> MixingDef {
+    let mut names = [String::new(), String::new()];
+    let mut indices = [0, 0];
+    if m.fluids.len() == 2 {
+        for j in 0..2 {
+            let key = format!("mixing.fluids[{j}]");
+            if let Some(i) = material_index(c, &key, &m.fluids[j], materials) {
+                if !is_fluid(&materials[i]) {
+                    c.err(
+                        &key,
+                        format!(
+                            "material \"{}\" is a solid: mixing needs two fluids \
+                             (model = \"tait\")",
+                            m.fluids[j]
+                        ),
+                    );
+                }
+                indices[j] = i;
+            }
+            names[j] = m.fluids[j].clone();
+        }
+        if names[0] == names[1] {
+            c.err("mixing.fluids", "the two fluids must differ");
+        }
+    } else {
+        c.err(
+            "mixing.fluids",
+            format!(
+                "must name two fluid materials [\"a\", \"b\"], got {}",
+                m.fluids.len()
+            ),
+        );
+    }
+    let diffusivity = match m.diffusivity {
+        Some(k) => c.non_negative("mixing.diffusivity", k),
+        None => {
+            c.err(
+                "mixing.diffusivity",
+                "missing key: diffusivity k_d (m²/s) is required (0 blends properties \
+                 without diffusion)",
+            );
+            0.0
+        }
+    };
+    let scheme = m.scheme.unwrap_or(SchemeName::KernelGradient);
+    if scheme == SchemeName::MlsDifference && kernel == KernelKind::Linear {
+        c.err(
+            "mixing.scheme",
+            "scheme = \"mls_difference\" needs a quadratic or cubic kernel (grid.kernel)",
+        );
+    }
+    let mut fluid_bodies = bodies
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| names.contains(&b.material));
+    if let Some((_, first)) = fluid_bodies.next() {
+        if let Some((i, other)) = fluid_bodies.find(|(_, b)| b.phase != first.phase) {
+            c.err(
+                &format!("bodies[{i}].phase"),
+                format!(
+                    "the bodies of the mixing fluids must be in one phase: body \"{}\" is in \
+                     phase {}, body \"{}\" in phase {}",
+                    other.name, other.phase, first.name, first.phase
+                ),
+            );
+        }
+    }
+    MixingDef {
+        fluids: names,
+        fluid_indices: indices,
+        diffusivity,
+        scheme,
+    }
+}
+
+fn resolve_dissolution(
+    c: &mut Checker<'_>,
+    d: &RawDissolution,
+    materials: &[MaterialDef],
+    mixing: Option<&MixingDef>,
+    bodies: &[BodyDef],
+    phases: u32,
+) -> DissolutionDef {
+    let solid_index = material_index(c, "dissolution.solid", &d.solid, materials);
+    if let Some(i) = solid_index {
+        if is_fluid(&materials[i]) {
+            c.err(
+                "dissolution.solid",
+                format!(
+                    "material \"{}\" is a fluid: only a solid dissolves",
+                    d.solid
+                ),
+            );
+        }
+    }
+    let into_index = material_index(c, "dissolution.into", &d.into, materials);
+    let mut fluid_bodies = bodies.iter().filter(|b| match mixing {
+        Some(m) => m.fluids.contains(&b.material),
+        None => false,
+    });
+    let derived = fluid_bodies.next().map(|b| b.phase);
+    match mixing {
+        None => c.err(
+            "dissolution",
+            "dissolution needs a [mixing] table with fluids = [\"<solvent>\", \"<into>\"]: the \
+             dissolved material mixes into the solvent as its second fluid",
+        ),
+        Some(m) if into_index.is_some() && m.fluids[1] != d.into => c.err(
+            "dissolution.into",
+            format!(
+                "must be the second fluid of [mixing] (\"{}\"), got \"{}\"",
+                m.fluids[1], d.into
+            ),
+        ),
+        Some(_) => {}
+    }
+    let rate = match d.rate {
+        Some(r) => c.non_negative("dissolution.rate", r),
+        None => {
+            c.err(
+                "dissolution.rate",
+                "missing key: rate (1/s) is required: full contact with fresh fluid dissolves a \
+                 particle in 1/rate seconds",
+            );
+            0.0
+        }
+    };
+    let fluid_phase = match (d.fluid_phase, derived) {
+        (Some(g), Some(from_bodies)) if g != from_bodies => {
+            c.err(
+                "dissolution.fluid_phase",
+                format!("the bodies of the mixing fluids are in phase {from_bodies}, not {g}"),
+            );
+            g
+        }
+        (Some(g), _) => {
+            if g >= phases {
+                c.err(
+                    "dissolution.fluid_phase",
+                    format!(
+                        "no body is in phase {g} (the bodies' phases are 0..={})",
+                        phases - 1
+                    ),
+                );
+            }
+            g
+        }
+        (None, Some(from_bodies)) => from_bodies,
+        (None, None) => {
+            if mixing.is_some() {
+                c.err(
+                    "dissolution.fluid_phase",
+                    "missing key: no body of the mixing fluids exists to take the fluid phase from",
+                );
+            }
+            0
+        }
+    };
+    if let Some((i, b)) = bodies
+        .iter()
+        .enumerate()
+        .find(|(_, b)| b.material == d.solid && b.phase == fluid_phase)
+    {
+        c.err(
+            &format!("bodies[{i}].phase"),
+            format!(
+                "body \"{}\" of the dissolving solid is in the fluid phase {fluid_phase}: the \
+                 solid needs a phase of its own (coupled to the fluid's)",
+                b.name
+            ),
+        );
+    }
+    DissolutionDef {
+        solid: d.solid.clone(),
+        solid_index: solid_index.unwrap_or(0),
+        into: d.into.clone(),
+        into_index: into_index.unwrap_or(0),
+        rate,
+        fluid_phase,
+    }
+}
+
+/// The initial φ_eff and concentration of every body, where those columns exist.
+fn resolve_body_state(
+    c: &mut Checker<'_>,
+    raw: &[RawBody],
+    bodies: &mut [BodyDef],
+    porous: Option<&PorousDef>,
+    mixing: Option<&MixingDef>,
+    dissolution: Option<&DissolutionDef>,
+) {
+    for (i, (r, b)) in raw.iter().zip(bodies.iter_mut()).enumerate() {
+        let k = |name: &str| format!("bodies[{i}].{name}");
+        b.initial_phi_eff = match porous {
+            Some(p) => Some(c.num(
+                &k("initial_phi_eff"),
+                r.initial_phi_eff.unwrap_or(p.initial_phi_eff),
+                |x| (0.0..=1.0).contains(&x),
+                "must lie in [0, 1]",
+            )),
+            None => {
+                c.not_applicable(
+                    &k("initial_phi_eff"),
+                    r.initial_phi_eff.is_some(),
+                    "without a [porous] table",
+                );
+                None
+            }
+        };
+        b.concentration = match mixing {
+            Some(m) => {
+                let carrier = m.fluids.contains(&b.material)
+                    || dissolution.is_some_and(|x| x.solid == b.material);
+                if !carrier {
+                    c.not_applicable(
+                        &k("concentration"),
+                        r.concentration.is_some(),
+                        &format!(
+                            "to material \"{}\": only to the mixing fluids and the dissolving \
+                             solid",
+                            b.material
+                        ),
+                    );
+                    None
+                } else {
+                    let default = if b.material == m.fluids[1] { 1.0 } else { 0.0 };
+                    Some(c.num(
+                        &k("concentration"),
+                        r.concentration.unwrap_or(default),
+                        |x| (0.0..=1.0).contains(&x),
+                        "must lie in [0, 1]",
+                    ))
+                }
+            }
+            None => {
+                c.not_applicable(
+                    &k("concentration"),
+                    r.concentration.is_some(),
+                    "without a [mixing] table",
+                );
+                None
+            }
+        };
+    }
 }
 
 fn resolve_simulation(c: &mut Checker<'_>, s: &RawSimulation) -> Option<Simulation> {
@@ -1578,10 +2525,10 @@ fn resolve_body(
         }
     };
     let phase = b.phase.unwrap_or(0);
-    if phase != 0 {
+    if phase >= MAX_PHASES {
         c.err(
             &k("phase"),
-            "only phase 0 exists: multi-grid phases are not available yet",
+            format!("must be below {MAX_PHASES} (got {phase})"),
         );
     }
     let has = |key: &str| -> bool {
@@ -1841,6 +2788,8 @@ fn resolve_body(
         velocity_gradient,
         angular_velocity,
         about,
+        initial_phi_eff: None,
+        concentration: None,
     })
 }
 
@@ -1981,6 +2930,15 @@ pub fn field_names(columns: &Columns) -> Vec<&'static str> {
     if columns.plastic {
         names.push("plastic");
     }
+    if columns.phase {
+        names.push("phase");
+    }
+    if columns.volume_fraction {
+        names.push("phi_eff");
+    }
+    if columns.concentration {
+        names.push("concentration");
+    }
     names.push("pressure");
     names
 }
@@ -2025,7 +2983,18 @@ fn resolve_output(
             let mut out: Vec<String> = Vec::new();
             for (i, f) in list.iter().enumerate() {
                 let all = [
-                    "x", "v", "mass", "volume0", "material", "affine", "F", "J", "plastic",
+                    "x",
+                    "v",
+                    "mass",
+                    "volume0",
+                    "material",
+                    "affine",
+                    "F",
+                    "J",
+                    "plastic",
+                    "phase",
+                    "phi_eff",
+                    "concentration",
                     "pressure",
                 ];
                 if !all.contains(&f.as_str()) {
@@ -2115,6 +3084,23 @@ fn resolve_checkpoint(c: &mut Checker<'_>, ck: &RawCheckpoint) -> CheckpointDef 
 }
 
 impl Scene {
+    /// Number of phases (grids): one more than the largest body phase.
+    pub fn phase_count(&self) -> u32 {
+        phase_count(&self.bodies)
+    }
+
+    /// The particle columns this scene needs: those of its materials, plus `phase` with more
+    /// than one phase, `phi_eff` with `[porous]` and `concentration` with `[mixing]`.
+    pub fn columns(&self) -> Columns {
+        let materials: Vec<Material> = self.materials.iter().map(|m| m.model.material()).collect();
+        columns_for(
+            &materials,
+            self.phase_count(),
+            self.porous.is_some(),
+            self.mixing.is_some() || self.dissolution.is_some(),
+        )
+    }
+
     /// The resolved scene as TOML, every default filled in.
     pub fn to_toml(&self) -> String {
         toml::to_string(self).unwrap_or_else(|e| format!("# (cannot print the scene: {e})\n"))

@@ -374,3 +374,253 @@ fn fixed_dt_above_the_stable_bound_warns() {
         stderr(&o)
     );
 }
+
+#[test]
+fn multigrid_settings_are_checked_at_their_keys() {
+    let d = tmpdir("multigrid");
+    let two = |from: &str, to: &str| {
+        let t = TWO_PHASE_2D.replace(from, to);
+        assert_ne!(t, TWO_PHASE_2D, "{from:?} not in the scene");
+        t
+    };
+    let all = |from: &str, to: &str| {
+        let t = POROUS_MIX_2D.replace(from, to);
+        assert_ne!(t, POROUS_MIX_2D, "{from:?} not in the scene");
+        t
+    };
+    // (text, key, the line the error points at)
+    let cases: Vec<(String, &str, &str)> = vec![
+        // Phases are numbered without gaps.
+        (
+            two("phase = 1", "phase = 2"),
+            "bodies[1].phase",
+            "phase = 2",
+        ),
+        (
+            two("phase = 1", "phase = 99"),
+            "bodies[1].phase",
+            "phase = 99",
+        ),
+        // Couplings.
+        (
+            two("phases = [0, 1]", "phases = [1, 1]"),
+            "couplings[0].phases",
+            "phases = [1, 1]",
+        ),
+        (
+            two("phases = [0, 1]", "phases = [0, 3]"),
+            "couplings[0].phases[1]",
+            "phases = [0, 3]",
+        ),
+        (
+            two("phases = [0, 1]", "phases = [0, 1, 2]"),
+            "couplings[0].phases",
+            "phases = [0, 1, 2]",
+        ),
+        (
+            two("kind = \"contact\"", "kind = \"glue\""),
+            "couplings[0].kind",
+            "kind = \"glue\"",
+        ),
+        (
+            two("normal_share = 1.0", "normal_share = 1.5"),
+            "couplings[0].normal_share",
+            "normal_share",
+        ),
+        (
+            two("friction = 0.5", "friction = -0.5"),
+            "couplings[0].friction",
+            "friction = -0.5",
+        ),
+        (
+            two("friction = 0.5", "friction = 0.5\ncoefficient = 3.0"),
+            "couplings[0].coefficient",
+            "coefficient",
+        ),
+        (
+            two(
+                "friction = 0.5",
+                "friction = 0.5\nfriction_model = \"sticky\"",
+            ),
+            "couplings[0].friction_model",
+            "friction_model",
+        ),
+        (
+            two("friction = 0.5", "friction = 0.5\nbuoyancy = -1.0"),
+            "couplings[0].buoyancy",
+            "buoyancy",
+        ),
+        (
+            two(
+                "kind = \"contact\"\nnormal_share = 1.0\nfriction = 0.5",
+                "kind = \"drag\"",
+            ),
+            "couplings[0].kind",
+            "kind = \"drag\"",
+        ),
+        (
+            two(
+                "kind = \"contact\"\nnormal_share = 1.0\nfriction = 0.5",
+                "kind = \"drag\"\nporosity = 1.5\nconductivity = 0.1",
+            ),
+            "couplings[0].porosity",
+            "porosity",
+        ),
+        (
+            two(
+                "kind = \"contact\"\nnormal_share = 1.0\nfriction = 0.5",
+                "kind = \"drag\"\nporosity = 0.5",
+            ),
+            "couplings[0].conductivity",
+            "[[couplings]]",
+        ),
+        // Phase b of a permeability drag or of Eq. 15 is the fluid.
+        (
+            two(
+                "phases = [0, 1]",
+                "phases = [1, 0]\npressure_buoyancy = true",
+            ),
+            "couplings[0].pressure_buoyancy",
+            "pressure_buoyancy",
+        ),
+        // Porous interaction.
+        (
+            all("initial_phi_eff = 0.25", "initial_phi_eff = 1.5"),
+            "porous.initial_phi_eff",
+            "initial_phi_eff = 1.5",
+        ),
+        (
+            all("phi_eff = \"relax\"", "phi_eff = \"max\""),
+            "porous.rate",
+            "rate = 5.0",
+        ),
+        (
+            all("phi_eff = \"relax\"", "phi_eff = \"wet\""),
+            "porous.phi_eff",
+            "phi_eff = \"wet\"",
+        ),
+        (
+            all("rate = 5.0", "rate = -5.0"),
+            "porous.rate",
+            "rate = -5.0",
+        ),
+        (
+            all(
+                "material = \"block\"\nparameter",
+                "material = \"lava\"\nparameter",
+            ),
+            "porous.interactions[0].material",
+            "material = \"lava\"",
+        ),
+        (
+            all("parameter = \"youngs_modulus\"", "parameter = \"cohesion\""),
+            "porous.interactions[0].parameter",
+            "parameter = \"cohesion\"",
+        ),
+        (
+            all("slope = -0.5", "slope = -0.5\nexponent = 0.0"),
+            "porous.interactions[0].exponent",
+            "exponent",
+        ),
+        (
+            all("slope = -0.5", "offset = 1.0"),
+            "porous.interactions[0].slope",
+            "[[porous.interactions]]",
+        ),
+        (
+            all(
+                "initial_phi_eff = 0.25",
+                "initial_phi_eff = 0.25\nrate_of = 1",
+            ),
+            "porous.rate_of",
+            "rate_of",
+        ),
+        (
+            two("phase = 1", "phase = 0") + "\n[porous]\nphi_eff = \"max\"\n",
+            "porous",
+            "[porous]",
+        ),
+        (
+            two("phase = 1", "phase = 1\ninitial_phi_eff = 0.5"),
+            "bodies[1].initial_phi_eff",
+            "initial_phi_eff",
+        ),
+        // Mixing.
+        (
+            all(
+                "fluids = [\"water\", \"solute\"]",
+                "fluids = [\"block\", \"solute\"]",
+            ),
+            "mixing.fluids[0]",
+            "fluids =",
+        ),
+        (
+            all("fluids = [\"water\", \"solute\"]", "fluids = [\"water\"]"),
+            "mixing.fluids",
+            "fluids =",
+        ),
+        (
+            all("diffusivity = 1e-3", "diffusivity = -1e-3"),
+            "mixing.diffusivity",
+            "diffusivity",
+        ),
+        (
+            all(
+                "diffusivity = 1e-3",
+                "diffusivity = 1e-3\nscheme = \"mls_difference\"",
+            )
+            .replace("dx = 0.03125", "dx = 0.03125\nkernel = \"linear\""),
+            "mixing.scheme",
+            "scheme",
+        ),
+        (
+            all("phase = 1", "phase = 0")
+                + "\n[[bodies]]\nname = \"more\"\nmaterial = \"solute\"\nphase = 1\n\
+                   shape = \"box\"\nmin = [0.1, 0.3]\nmax = [0.2, 0.4]\n",
+            "bodies[2].phase",
+            "phase = 1",
+        ),
+        (
+            all("phase = 1", "phase = 1\nconcentration = 2.0"),
+            "bodies[1].concentration",
+            "concentration = 2.0",
+        ),
+        (
+            two("phase = 1", "phase = 1\nconcentration = 0.5"),
+            "bodies[1].concentration",
+            "concentration = 0.5",
+        ),
+        // Dissolution.
+        (
+            all("into = \"solute\"", "into = \"water\""),
+            "dissolution.into",
+            "into = \"water\"",
+        ),
+        (
+            all("solid = \"block\"", "solid = \"water\""),
+            "dissolution.solid",
+            "solid = \"water\"",
+        ),
+        (
+            all("rate = 30.0", "fluid_phase = 1"),
+            "dissolution.rate",
+            "[dissolution]",
+        ),
+        (
+            all("rate = 30.0", "rate = 30.0\nfluid_phase = 0"),
+            "dissolution.fluid_phase",
+            "fluid_phase = 0",
+        ),
+        (
+            all(
+                "[mixing]\nfluids = [\"water\", \"solute\"]\ndiffusivity = 1e-3\n",
+                "",
+            ),
+            "dissolution",
+            "[dissolution]",
+        ),
+    ];
+    for (i, (text, key, line)) in cases.iter().enumerate() {
+        expect_bad(&d, &format!("mg{i}.toml"), text, "check", key, Some(line));
+    }
+}

@@ -159,3 +159,10 @@ fn resume_rejects_files_that_do_not_fit() {
     // A missing file.
     try_resume(&snow, &d.join("nope.h5"));
 }
+
+#[test]
+fn resume_multigrid_2d_is_bitwise() {
+    // Two phases, drag with a buoyancy penalty, φ_eff, mixing and dissolution: particles change
+    // material and phase on both sides of the checkpoint.
+    check_resume("multigrid", POROUS_MIX_2D, 30, 60);
+}

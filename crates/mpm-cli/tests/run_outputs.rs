@@ -201,10 +201,9 @@ fn check_info_and_render() {
         "plasticity = \"snow\"",
         "theta_c = 0.025",
         "columns:    x, v, mass, volume0, material, affine, F, plastic",
-        "plasticity   return mapping",
-        "boundaries   domain walls",
-        "volume       volume_update = \"deformation\"",
-        "soft_walls   not enabled",
+        "g2p — velocity, affine C, F or J update, advection; plasticity: return mapping for snow",
+        "boundaries — domain walls",
+        "p2g (1 grid(s)) — APIC transfer",
     ] {
         assert!(
             text.contains(needle),
@@ -351,5 +350,5 @@ fn example_scenes_check_and_start() {
         let out = run_scene(&d, &name, &short.join("\n"));
         assert_eq!(numbered_files(&out, "snap_").len(), 4, "{name}");
     }
-    assert_eq!(count, 4, "the four example scenes");
+    assert_eq!(count, 14, "the fourteen example scenes");
 }

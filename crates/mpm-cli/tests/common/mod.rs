@@ -190,6 +190,142 @@ translation = [0.25, 0.15, 0.15]
 type = "walls"
 "#;
 
+/// A small 2D two-phase scene: a light jelly block (phase 0) and a water column (phase 1),
+/// contact coupled on approach.
+pub const TWO_PHASE_2D: &str = r#"
+[simulation]
+dim = 2
+steps = 40
+gravity = [0.0, -9.81]
+
+[grid]
+min = [0.0, 0.0]
+max = [0.5, 0.5]
+dx = 0.03125
+
+[[materials]]
+name = "jelly"
+preset = "jelly"
+density = 400.0
+
+[[materials]]
+name = "water"
+preset = "water"
+
+[[bodies]]
+name = "block"
+material = "jelly"
+phase = 0
+shape = "box"
+min = [0.3, 0.1]
+max = [0.4, 0.2]
+
+[[bodies]]
+name = "column"
+material = "water"
+phase = 1
+shape = "box"
+min = [0.1, 0.1]
+max = [0.25, 0.35]
+
+[[couplings]]
+phases = [0, 1]
+kind = "contact"
+normal_share = 1.0
+friction = 0.5
+
+[[boundaries]]
+type = "walls"
+contact = "separate"
+
+[output]
+interval_steps = 20
+"#;
+
+/// A small 2D scene with every multi-grid feature: a porous block (phase 0) overlapping water
+/// (phase 1), drag coupled with a buoyancy penalty; φ_eff softens the block; the block dissolves
+/// into a viscous solute that mixes into the water. Checkpoints every 30 steps.
+pub const POROUS_MIX_2D: &str = r#"
+[simulation]
+dim = 2
+steps = 60
+gravity = [0.0, -9.81]
+
+[grid]
+min = [0.0, 0.0]
+max = [0.5, 0.5]
+dx = 0.03125
+
+[[materials]]
+name = "block"
+model = "neo_hookean"
+density = 800.0
+E = 5e4
+nu = 0.3
+
+[[materials]]
+name = "water"
+preset = "water"
+
+[[materials]]
+name = "solute"
+preset = "water"
+viscosity = 0.05
+
+[[bodies]]
+name = "block"
+material = "block"
+phase = 0
+shape = "box"
+min = [0.2, 0.15]
+max = [0.3, 0.3]
+
+[[bodies]]
+name = "pool"
+material = "water"
+phase = 1
+shape = "box"
+min = [0.1, 0.1]
+max = [0.4, 0.22]
+
+[[couplings]]
+phases = [0, 1]
+kind = "drag"
+porosity = 0.5
+conductivity = 0.05
+buoyancy = 1.0
+
+[porous]
+phi_eff = "relax"
+rate = 5.0
+initial_phi_eff = 0.25
+
+[[porous.interactions]]
+material = "block"
+parameter = "youngs_modulus"
+slope = -0.5
+
+[mixing]
+fluids = ["water", "solute"]
+diffusivity = 1e-3
+
+[dissolution]
+solid = "block"
+into = "solute"
+rate = 30.0
+
+[[boundaries]]
+type = "walls"
+contact = "separate"
+
+[output]
+interval_steps = 20
+
+[checkpoint]
+interval_steps = 30
+keep = 5
+"#;
+
 /// Line number (1-based) of the first line of `text` starting with `prefix`.
 pub fn line_of(text: &str, prefix: &str) -> usize {
     text.lines()
