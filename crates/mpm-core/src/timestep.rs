@@ -1,6 +1,6 @@
 //! Time-step control (DESIGN §6): `dt = min(C·Δx / max_p(|v_p| + c_p), viscous limit, dt_max)`.
 
-use crate::error::{Location, Violation};
+use crate::error::{Location, SetupError, Violation};
 use crate::math::Real;
 use serde::{Deserialize, Serialize};
 
@@ -22,6 +22,34 @@ pub enum TimeStepPolicy {
         /// The step (s).
         dt: Real,
     },
+}
+
+impl TimeStepPolicy {
+    /// Checks that a fixed dt is positive and finite, and that an adaptive policy has a positive
+    /// finite CFL factor and `dt_max > 0` with `dt_max ≥ dt_min`.
+    pub fn validate(&self) -> Result<(), SetupError> {
+        let invalid = |name, value, reason| {
+            Err(SetupError::InvalidParameter {
+                name,
+                value,
+                reason,
+            })
+        };
+        match *self {
+            TimeStepPolicy::Fixed { dt } if !(dt > 0.0 && dt.is_finite()) => {
+                invalid("dt", dt, "must be positive and finite")
+            }
+            TimeStepPolicy::Adaptive { cfl, .. } if !(cfl > 0.0 && cfl.is_finite()) => {
+                invalid("cfl", cfl, "must be positive and finite")
+            }
+            TimeStepPolicy::Adaptive { dt_max, dt_min, .. }
+                if !(dt_max > 0.0 && dt_max >= dt_min) =>
+            {
+                invalid("dt_max", dt_max, "must be positive and at least dt_min")
+            }
+            _ => Ok(()),
+        }
+    }
 }
 
 impl Default for TimeStepPolicy {

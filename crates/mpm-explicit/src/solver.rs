@@ -694,24 +694,7 @@ fn validate<const D: usize>(
     if let Some(&n) = spec.size.iter().find(|&&n| n < params.kernel.support() + 1) {
         return invalid("grid.size", n as Real, "too few nodes for the kernel");
     }
-    match params.time_step {
-        TimeStepPolicy::Fixed { dt } if !(dt > 0.0 && dt.is_finite()) => {
-            return invalid("dt", dt, "must be positive and finite");
-        }
-        TimeStepPolicy::Adaptive {
-            cfl,
-            dt_max,
-            dt_min,
-        } => {
-            if !(cfl > 0.0 && cfl.is_finite()) {
-                return invalid("cfl", cfl, "must be positive and finite");
-            }
-            if !(dt_max > 0.0 && dt_max >= dt_min) {
-                return invalid("dt_max", dt_max, "must be positive and at least dt_min");
-            }
-        }
-        TimeStepPolicy::Fixed { .. } => {}
-    }
+    params.time_step.validate()?;
     if let Transfer::Flip { blend } = params.transfer {
         if !(0.0..=1.0).contains(&blend) {
             return invalid("flip blend", blend, "must lie in [0, 1]");

@@ -495,24 +495,7 @@ fn validate<const D: usize>(
     if !(spec.dx > 0.0 && spec.dx.is_finite()) {
         return invalid("grid.dx", spec.dx, "must be positive and finite");
     }
-    match params.time_step {
-        TimeStepPolicy::Fixed { dt } if !(dt > 0.0 && dt.is_finite()) => {
-            return invalid("dt", dt, "must be positive and finite");
-        }
-        TimeStepPolicy::Adaptive {
-            cfl,
-            dt_max,
-            dt_min,
-        } => {
-            if !(cfl > 0.0 && cfl.is_finite()) {
-                return invalid("cfl", cfl, "must be positive and finite");
-            }
-            if !(dt_max > 0.0 && dt_max >= dt_min) {
-                return invalid("dt_max", dt_max, "must be positive and at least dt_min");
-            }
-        }
-        TimeStepPolicy::Fixed { .. } => {}
-    }
+    params.time_step.validate()?;
     if params.gravity.iter().any(|g| !g.is_finite()) {
         return invalid("gravity", Real::NAN, "must be finite");
     }
