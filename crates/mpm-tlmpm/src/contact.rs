@@ -138,14 +138,7 @@ impl<const D: usize> ContactStage<D> {
             radius: &self.radius,
         };
         let stats = self.contact.forces(&input, obstacles, dt, &mut self.forces);
-        let forces = &self.forces;
-        external.par_iter_mut().enumerate().for_each(|(i, fi)| {
-            let mut f = Vector::<D>::zeros();
-            for &(p, k) in reference.incidence(i) {
-                f += forces[p as usize] * reference.slot(p as usize, k as usize).0;
-            }
-            *fi += f;
-        });
+        reference.spread_forces(&self.forces, external);
         stats
     }
 }

@@ -115,6 +115,8 @@ pub(crate) struct Core<const D: usize> {
     pub node_velocity: Vec<Vector<D>>,
     /// External nodal forces (N).
     pub external: Vec<Vector<D>>,
+    /// Applied per-particle forces f_p (N), e.g. a tip load; empty when there are none.
+    pub particle_forces: Vec<Vector<D>>,
     /// Node displacements of the step, u = Δt v^{n+1} (m).
     pub displacement: Vec<Vector<D>>,
     /// G2P results awaiting the guard checks.
@@ -168,6 +170,7 @@ where
             grid_velocity: Vec::new(),
             node_velocity: Vec::new(),
             external: Vec::new(),
+            particle_forces: Vec::new(),
             displacement: Vec::new(),
             updates: Vec::new(),
             contact,
@@ -201,12 +204,25 @@ where
         );
     }
 
-    /// Stage: external nodal forces `f^ext_i = m_i g` (N).
+    /// Stage: external nodal forces `f^ext_i = m_i g + Σ_p W_i(X_p) f_p` (N), gravity plus the
+    /// applied particle forces.
     pub fn external_forces(&mut self) {
         let g = self.params.gravity;
         self.external.clear();
         self.external
             .extend(self.reference.node_masses().iter().map(|&m| g * m));
+        if !self.particle_forces.is_empty() {
+            self.reference
+                .spread_forces(&self.particle_forces, &mut self.external);
+        }
+    }
+
+    /// Applied per-particle forces (N), allocated as zeros on first use.
+    pub fn particle_forces_mut(&mut self) -> &mut [Vector<D>] {
+        if self.particle_forces.is_empty() {
+            self.particle_forces = vec![Vector::<D>::zeros(); self.particles.len()];
+        }
+        &mut self.particle_forces
     }
 
     /// Stage: particle contact forces (Eq. 4) at the current positions for a step of `dt` (s),

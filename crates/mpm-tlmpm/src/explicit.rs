@@ -119,6 +119,14 @@ where
         &mut self.core.particles.v
     }
 
+    /// Applied forces on the particles (N), zero until set. They enter every later step as
+    /// external nodal forces `Σ_p W_i(X_p) f_p` held over the step (a tip load, a manufactured
+    /// body force `m_p b(X_p, t)`), without touching the particle velocities, so they also
+    /// work with [`crate::Transfer::Persistent`].
+    pub fn particle_forces_mut(&mut self) -> &mut [Vector<D>] {
+        self.core.particle_forces_mut()
+    }
+
     /// The cached reference configuration.
     pub fn reference(&self) -> &ReferenceConfig<D> {
         &self.core.reference

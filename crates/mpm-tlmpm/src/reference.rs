@@ -12,6 +12,7 @@
 
 use crate::params::FixedRegion;
 use mpm_core::{GridSpec, Kernel, Real, SetupError, Stencil, Vector};
+use rayon::prelude::*;
 
 /// Marks a stencil slot without an active node, or a node without equations.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -212,6 +213,18 @@ impl<const D: usize> ReferenceConfig<D> {
     #[inline]
     pub(crate) fn incidence(&self, i: usize) -> &[(u32, u32)] {
         &self.incidence[self.incidence_ptr[i]..self.incidence_ptr[i + 1]]
+    }
+
+    /// Adds per-particle forces `f_p` (N) to nodal forces as `f_i += Σ_p W_i(X_p) f_p`: a
+    /// gather over each node's particles in ascending order, so the sums are deterministic.
+    pub(crate) fn spread_forces(&self, forces: &[Vector<D>], nodal: &mut [Vector<D>]) {
+        nodal.par_iter_mut().enumerate().for_each(|(i, fi)| {
+            let mut f = Vector::<D>::zeros();
+            for &(p, k) in self.incidence(i) {
+                f += forces[p as usize] * self.slot(p as usize, k as usize).0;
+            }
+            *fi += f;
+        });
     }
 
     /// Weight and gradient of slot `k` of particle `p`.

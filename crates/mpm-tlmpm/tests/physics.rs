@@ -382,3 +382,111 @@ fn results_are_bitwise_identical_for_1_and_4_threads() {
         assert_eq!(one, four, "solver variant {which} (2D)");
     }
 }
+
+/// A column `[0, W] × [0, L]` clamped at its top and pulled down by a total force `F` spread
+/// over the particles of its bottom row, solved with one long backward-Euler step per load
+/// state: linear elasticity with ν = 0 gives the uniform stretch `u(Y) = −F (L − Y)/(E W)`
+/// above the loaded row. The same column under gravity given as the particle forces `m_p g`
+/// must match the run with `TlmpmParams::gravity`. Returns (worst stretch error relative to
+/// the tip value, worst gravity mismatch relative to the tip displacement).
+fn loaded_column() -> (Real, Real) {
+    let (len, width, dx, e, rho, force) = (1.0, 0.25, 1.0 / 16.0, 1e7, 1000.0, 2.0e3);
+    let h = dx / 2.0;
+    let bounds = (Vector::<2>::zeros(), Vector::<2>::new(width, len));
+    let params = |gravity: Real| TlmpmParams {
+        gravity: Vector::<2>::new(0.0, -gravity),
+        time_step: TimeStepPolicy::Fixed { dt: 10.0 },
+        fixed: vec![FixedRegion::clamp(
+            Vector::<2>::new(-10.0, len),
+            Vector::<2>::from_element(10.0),
+        )],
+        ..TlmpmParams::default()
+    };
+    let solver = |gravity: Real| {
+        ImplicitTlmpm::new(
+            grid_around(bounds, dx, 3),
+            params(gravity),
+            ImplicitParams {
+                newton: NewtonParams {
+                    rel_tol: 1e-12,
+                    ..NewtonParams::default()
+                },
+                linear: LinearSolver::Cholesky,
+            },
+            vec![uniaxial(e, rho)],
+            block(bounds, h, rho, |_| Vector::<2>::zeros()),
+        )
+        .unwrap()
+    };
+    // Tip load on the bottom row (Y = h/2).
+    let mut loaded = solver(0.0);
+    let bottom: Vec<bool> = loaded
+        .reference()
+        .positions()
+        .iter()
+        .map(|x| x.y < h)
+        .collect();
+    let per = force / bottom.iter().filter(|&&b| b).count() as Real;
+    for (f, &b) in loaded.particle_forces_mut().iter_mut().zip(&bottom) {
+        f.y = if b { -per } else { 0.0 };
+    }
+    for _ in 0..3 {
+        loaded.step().unwrap();
+    }
+    let tip = force * (len - h / 2.0) / (e * width);
+    let stretch = loaded
+        .particles()
+        .x
+        .iter()
+        .zip(loaded.reference().positions())
+        .map(|(x, x0)| {
+            let exact = -force * (len - x0.y.max(h / 2.0)) / (e * width);
+            ((x.y - x0.y) - exact).abs() / tip
+        })
+        .fold(0.0, Real::max);
+    // Gravity as particle forces against the gravity parameter.
+    let g = 9.81;
+    let mut by_param = solver(g);
+    let mut by_force = solver(0.0);
+    let masses = by_force.particles().mass.clone();
+    for (f, m) in by_force.particle_forces_mut().iter_mut().zip(&masses) {
+        f.y = -m * g;
+    }
+    for _ in 0..3 {
+        by_param.step().unwrap();
+        by_force.step().unwrap();
+    }
+    let sag = rho * g * len * len / (2.0 * e);
+    let mismatch = by_param
+        .particles()
+        .x
+        .iter()
+        .zip(&by_force.particles().x)
+        .map(|(a, b)| (a - b).norm() / sag)
+        .fold(0.0, Real::max);
+    let lowest = by_force
+        .particles()
+        .x
+        .iter()
+        .zip(by_force.reference().positions())
+        .map(|(x, x0)| x0.y - x.y)
+        .fold(0.0, Real::max);
+    println!(
+        "loaded column: tip {tip:.4e} m, worst stretch error {:.3}% of it; gravity as particle \
+         forces: sag {lowest:.4e} m (theory {sag:.4e} m), {mismatch:.2e} of it from the run \
+         with the gravity parameter",
+        100.0 * stretch
+    );
+    assert!(
+        (lowest / sag - 1.0).abs() < 0.05,
+        "sag {lowest} against {sag}"
+    );
+    (stretch, mismatch)
+}
+
+#[test]
+fn particle_forces_give_the_static_stretch_and_match_gravity() {
+    let (stretch, mismatch) = loaded_column();
+    assert!(stretch < 0.03, "stretch error {stretch}");
+    assert!(mismatch < 1e-9, "gravity mismatch {mismatch}");
+}
