@@ -88,6 +88,27 @@ impl StageTimes {
     }
 }
 
+/// The solver state beyond the particle columns: what a checkpoint must hold, besides the
+/// particles, for a resumed run to continue bitwise identically.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TlmpmState<const D: usize> {
+    /// Simulation time (s).
+    pub time: Real,
+    /// Accepted steps.
+    pub steps: u64,
+    /// Reference positions X_p (m): the initial positions, or those of the last A-ULMPM
+    /// reference update.
+    pub reference_positions: Vec<Vector<D>>,
+    /// A-ULMPM only: `G_p = F_p^{(r,n)}`, the deformation gradients since the reference
+    /// configuration (dimensionless).
+    pub relative_def_grad: Option<Vec<Matrix<D>>>,
+    /// A-ULMPM only: `B_p = F_p^{(0,r)}`, the base deformation gradients (dimensionless);
+    /// `None` while they are the identity.
+    pub base_def_grad: Option<Vec<Matrix<D>>>,
+    /// Number of A-ULMPM reference updates so far.
+    pub reference_updates: u64,
+}
+
 /// Runs `f`, adding its wall-clock time to `acc`.
 pub(crate) fn timed<T>(acc: &mut Duration, f: impl FnOnce() -> T) -> T {
     let t = std::time::Instant::now();
@@ -176,6 +197,117 @@ where
             contact,
             adaptive,
         })
+    }
+
+    /// The state beyond the particle columns (see [`TlmpmState`]).
+    pub fn state(&self) -> TlmpmState<D> {
+        let a = self.adaptive.as_ref();
+        TlmpmState {
+            time: self.time,
+            steps: self.steps,
+            reference_positions: self.reference.positions().to_vec(),
+            relative_def_grad: a.map(|a| a.rel.clone()),
+            base_def_grad: a.and_then(|a| a.base.clone()),
+            reference_updates: a.map_or(0, |a| a.updates),
+        }
+    }
+
+    /// Restores a state saved by [`Core::state`] for the current particles: rebuilds the
+    /// reference configuration at `state.reference_positions` and the Dirichlet numbering,
+    /// and sets the A-ULMPM columns. Persistent node velocities are dropped, so the next step
+    /// starts with a P2G transfer.
+    pub fn restore(&mut self, state: TlmpmState<D>) -> Result<(), SetupError> {
+        let n = self.particles.len();
+        let mismatch = |name: &'static str, len: usize| SetupError::InvalidParameter {
+            name,
+            value: len as Real,
+            reason: "must have one entry per particle",
+        };
+        if state.reference_positions.len() != n {
+            return Err(mismatch(
+                "reference_positions",
+                state.reference_positions.len(),
+            ));
+        }
+        match (&mut self.adaptive, state.relative_def_grad) {
+            (Some(a), Some(rel)) => {
+                if rel.len() != n {
+                    return Err(mismatch("relative_def_grad", rel.len()));
+                }
+                if let Some(b) = state.base_def_grad.as_ref().filter(|b| b.len() != n) {
+                    return Err(mismatch("base_def_grad", b.len()));
+                }
+                a.rel = rel;
+                a.base = state.base_def_grad;
+                a.updates = state.reference_updates;
+                a.refresh_hardening(
+                    &self.materials,
+                    &self.particles.material,
+                    self.particles.plastic.as_deref(),
+                );
+            }
+            (None, None) => {}
+            _ => {
+                return Err(SetupError::InvalidSetting {
+                    setting: "reference_update".into(),
+                    reason: "the saved state and the solver disagree on A-ULMPM".into(),
+                })
+            }
+        }
+        self.reference = ReferenceConfig::new(
+            *self.reference.spec(),
+            self.reference.kernel(),
+            &state.reference_positions,
+            &self.particles.mass,
+        )?;
+        self.constraints = Constraints::new(&self.reference, &self.params.fixed);
+        self.node_velocity.clear();
+        self.time = state.time;
+        self.steps = state.steps;
+        Ok(())
+    }
+
+    /// The stage plan of one step, only the stages these parameters use; `implicit` selects
+    /// the Newton grid solve over the explicit update.
+    pub fn stage_plan(&self, implicit: bool) -> Vec<String> {
+        let p = &self.params;
+        let mut plan = vec!["time_step".to_string()];
+        plan.push(match p.transfer {
+            Transfer::Persistent => "p2g (first step only; node velocities persist)".into(),
+            _ => "p2g".into(),
+        });
+        let mut ext = vec!["gravity"];
+        if !self.particle_forces.is_empty() {
+            ext.push("applied particle forces");
+        }
+        plan.push(format!("external forces ({})", ext.join(", ")));
+        if let Some(c) = &p.contact {
+            plan.push(format!(
+                "contact (Eq. 4; particle pairs{})",
+                if c.obstacles.is_empty() {
+                    String::new()
+                } else {
+                    format!(", {} obstacle(s)", c.obstacles.len())
+                }
+            ));
+        }
+        plan.push(if implicit {
+            "solve: Newton on the backward-Euler incremental potential".into()
+        } else {
+            "solve: internal forces (Eq. 3) and symplectic Euler node update".into()
+        });
+        plan.push(
+            if self.adaptive.is_some() && Adaptive::<D>::needs_base(&self.materials) {
+                "g2p: F update, plastic return mapping, guard checks".into()
+            } else {
+                "g2p: F update, guard checks".into()
+            },
+        );
+        plan.push("commit".into());
+        if self.adaptive.is_some() {
+            plan.push("reference update (A-ULMPM trigger)".into());
+        }
+        plan
     }
 
     /// Elastic deformation gradients `F_E` at the start of the step.

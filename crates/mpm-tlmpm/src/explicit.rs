@@ -1,7 +1,7 @@
 //! Explicit TLMPM: symplectic Euler on the reference grid, for comparison and cheap cases.
 
 use crate::contact::ContactStats;
-use crate::core::{split_law, timed, Core, Failure, StageTimes};
+use crate::core::{split_law, timed, Core, Failure, StageTimes, TlmpmState};
 use crate::error::StepError;
 use crate::params::TlmpmParams;
 use crate::potential::internal_force;
@@ -125,6 +125,25 @@ where
     /// work with [`crate::Transfer::Persistent`].
     pub fn particle_forces_mut(&mut self) -> &mut [Vector<D>] {
         self.core.particle_forces_mut()
+    }
+
+    /// The solver state beyond the particle columns, for a checkpoint.
+    pub fn state(&self) -> TlmpmState<D> {
+        self.core.state()
+    }
+
+    /// Continues from a checkpoint: the solver must have been built from the checkpoint's
+    /// particles with the original parameters; `state` (from [`Self::state`]) restores the
+    /// reference configuration, the A-ULMPM columns, the time and the step count.
+    pub fn restore(&mut self, state: TlmpmState<D>) -> Result<(), SetupError> {
+        self.core.restore(state)?;
+        Ok(())
+    }
+
+    /// The stages each step runs, in order, for this solver's parameters (only those it
+    /// uses).
+    pub fn stage_plan(&self) -> Vec<String> {
+        self.core.stage_plan(false)
     }
 
     /// The cached reference configuration.

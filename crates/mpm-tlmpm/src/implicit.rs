@@ -4,7 +4,7 @@ use crate::assembly::HessianPattern;
 use crate::cg::{pcg, CgEnd, CgWork};
 use crate::cholesky::{CholeskyError, SparseCholesky};
 use crate::contact::ContactStats;
-use crate::core::{split_law, timed, Core, Failure, NewtonTimes, StageTimes};
+use crate::core::{split_law, timed, Core, Failure, NewtonTimes, StageTimes, TlmpmState};
 use crate::error::StepError;
 use crate::newton::{minimize, Indefinite, NewtonInfo, NewtonWork, Objective};
 use crate::params::{ImplicitParams, LinearSolver, TlmpmParams};
@@ -292,6 +292,26 @@ where
     /// work with [`crate::Transfer::Persistent`].
     pub fn particle_forces_mut(&mut self) -> &mut [Vector<D>] {
         self.core.particle_forces_mut()
+    }
+
+    /// The solver state beyond the particle columns, for a checkpoint.
+    pub fn state(&self) -> TlmpmState<D> {
+        self.core.state()
+    }
+
+    /// Continues from a checkpoint: the solver must have been built from the checkpoint's
+    /// particles with the original parameters; `state` (from [`Self::state`]) restores the
+    /// reference configuration, the A-ULMPM columns, the time and the step count.
+    pub fn restore(&mut self, state: TlmpmState<D>) -> Result<(), SetupError> {
+        self.core.restore(state)?;
+        self.ws.objective.sparse = None;
+        Ok(())
+    }
+
+    /// The stages each step runs, in order, for this solver's parameters (only those it
+    /// uses).
+    pub fn stage_plan(&self) -> Vec<String> {
+        self.core.stage_plan(true)
     }
 
     /// The cached reference configuration.

@@ -65,7 +65,7 @@ mod potential;
 mod reference;
 mod transfer;
 
-pub use crate::core::{NewtonTimes, StageTimes};
+pub use crate::core::{NewtonTimes, StageTimes, TlmpmState};
 pub use cholesky::{CholeskyError, SparseCholesky};
 pub use contact::{ContactInput, ContactRadius, ContactStats, Obstacle, ParticleContact};
 pub use error::{NewtonError, StepError};
