@@ -1,15 +1,17 @@
-//! From a resolved [`Scene`](crate::scene::Scene) to a ready-to-run [`ExplicitSolver`]: grid,
-//! materials, sampled bodies with their initial velocities, boundaries and solver parameters.
+//! From a resolved [`Scene`](crate::scene::Scene) to a ready-to-run solver ([`Driver`]):
+//! grid, materials, sampled bodies with their initial velocities, boundaries and solver
+//! parameters, for explicit MLS-MPM or TLMPM.
 //! Problems found here (a body outside the grid, a body without particles, a missing mesh) are
 //! reported at their key in the scene file.
 
+use crate::driver::Driver;
 use crate::error::SceneError;
 use crate::mesh::{read_obj, TriMesh};
 use crate::scene::{
     ApplyName, BodyDef, BoundaryGeometry, ContactName, CouplingDef, CouplingKindDef, DragDef,
-    Duration, FrictionModel, InitialVolume, InstabilityAction, KernelKind, LoadedScene,
-    NumberOrList, PhiEffDef, SamplingDef, Scene, SchemeName, ShapeDef, TimeStepDef, TransferKind,
-    VolumeUpdateKind,
+    Duration, FrictionModel, InitialVolume, InstabilityAction, IntegratorKind, KernelKind,
+    LinearSolverKind, LoadedScene, NumberOrList, PhiEffDef, ProjectionKind, SamplingDef, Scene,
+    SchemeName, ShapeDef, TimeStepDef, TlmpmDef, TransferKind, VolumeUpdateKind,
 };
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind, DomainWalls};
 use mpm_core::material::{Interaction, Scaling};
@@ -23,6 +25,11 @@ use mpm_explicit::{
     Activation, BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, DiffusionScheme,
     Dissolution, Drag, EffectiveFraction, ExplicitParams, ExplicitSolver, Friction, Mixing, Phases,
     Porous, PressureBuoyancy, SoftWalls, Transfer, VolumeUpdate,
+};
+use mpm_tlmpm::{
+    ContactParams, ContactRadius, ExplicitTlmpm, FixedRegion, ImplicitParams, ImplicitTlmpm,
+    LinearSolver, NewtonParams, Obstacle, ReferenceUpdate, SpdProjection, TlmpmParams,
+    Transfer as TlTransfer,
 };
 use std::ops::Range;
 
@@ -44,7 +51,7 @@ pub struct BodyInfo {
 #[derive(Debug)]
 pub struct Built<const D: usize> {
     /// The solver, at time 0.
-    pub solver: ExplicitSolver<D>,
+    pub solver: Driver<D>,
     /// The bodies and their particle ranges.
     pub bodies: Vec<BodyInfo>,
     /// Warnings to print at start (e.g. a fixed dt above the stable bound).
@@ -549,15 +556,43 @@ where
         }
     }
     warnings.extend(uncoupled_phases(sc));
-    let solver = ExplicitSolver::new(
-        spec,
-        params::<D>(scene),
-        materials,
-        boundaries::<D>(scene),
-        particles,
-    )
-    .map_err(|e| setup_error(scene, &bodies, e))?;
-    if let TimeStepDef::Fixed { dt } = sc.simulation.time_step {
+    let solver = match &sc.tlmpm {
+        None => Driver::Explicit(Box::new(
+            ExplicitSolver::new(
+                spec,
+                params::<D>(scene),
+                materials,
+                boundaries::<D>(scene),
+                particles,
+            )
+            .map_err(|e| setup_error(scene, &bodies, e))?,
+        )),
+        Some(t) => {
+            let forces = load_forces(scene, &particles)?;
+            let params = tlmpm_params::<D>(scene, &spec);
+            let implicit = (t.integrator == IntegratorKind::Implicit).then(|| implicit_params(t));
+            let mut d = match implicit {
+                Some(ip) => Driver::ImplicitTlmpm(Box::new(
+                    ImplicitTlmpm::new(spec, params, ip, materials, particles)
+                        .map_err(|e| setup_error(scene, &bodies, e))?,
+                )),
+                None => Driver::ExplicitTlmpm(Box::new(
+                    ExplicitTlmpm::new(spec, params, materials, particles)
+                        .map_err(|e| setup_error(scene, &bodies, e))?,
+                )),
+            };
+            if let Some(f) = forces {
+                match &mut d {
+                    Driver::ImplicitTlmpm(s) => s.particle_forces_mut().copy_from_slice(&f),
+                    Driver::ExplicitTlmpm(s) => s.particle_forces_mut().copy_from_slice(&f),
+                    Driver::Explicit(_) => {}
+                }
+            }
+            d
+        }
+    };
+    let implicit = matches!(solver, Driver::ImplicitTlmpm(_));
+    if let (TimeStepDef::Fixed { dt }, false) = (sc.simulation.time_step, implicit) {
         let stable = solver.stable_dt();
         if dt > stable {
             warnings.push(format!(
@@ -579,6 +614,129 @@ where
         bodies,
         warnings,
     })
+}
+
+/// The TLMPM solver parameters of the scene: walls and colliders become penalty obstacles.
+pub fn tlmpm_params<const D: usize>(scene: &LoadedScene, spec: &GridSpec<D>) -> TlmpmParams<D> {
+    let sc = &scene.scene;
+    let base = params::<D>(scene);
+    let t = sc.tlmpm.as_ref();
+    let walls = sc.boundaries.iter().filter_map(|b| match b.geometry {
+        BoundaryGeometry::Walls { thickness } => {
+            let inset = thickness as f64 * spec.dx;
+            Some(Obstacle::Walls {
+                min: spec.origin.add_scalar(inset),
+                max: Vector::<D>::from_fn(|a, _| {
+                    spec.origin[a] + (spec.size[a] - 1) as f64 * spec.dx - inset
+                }),
+            })
+        }
+        _ => None,
+    });
+    let obstacles: Vec<Obstacle<D>> = walls
+        .chain(
+            boundaries::<D>(scene)
+                .colliders
+                .into_iter()
+                .map(|c| Obstacle::Collider(c.shape)),
+        )
+        .collect();
+    let contact = t.is_some_and(|t| t.contact) || !obstacles.is_empty();
+    TlmpmParams {
+        kernel: base.kernel,
+        transfer: match sc.simulation.transfer {
+            TransferKind::Pic => TlTransfer::Pic,
+            _ => TlTransfer::Apic,
+        },
+        gravity: base.gravity,
+        time_step: base.time_step,
+        on_instability: base.on_instability,
+        fixed: sc
+            .fixed
+            .iter()
+            .map(|f| FixedRegion {
+                min: vector::<D>(&f.min),
+                max: vector::<D>(&f.max),
+                axes: std::array::from_fn(|a| f.axes.get(a).copied().unwrap_or(true)),
+                velocity: vector::<D>(&f.velocity),
+            })
+            .collect(),
+        contact: contact.then(|| ContactParams {
+            radius: ContactRadius::Fixed(t.map_or(0.5 * spec.dx, |t| t.contact_radius)),
+            obstacles,
+        }),
+        reference_update: t.and_then(|t| t.reference_update).map(|r| ReferenceUpdate {
+            epsilon: r.epsilon,
+            eta: r.eta,
+        }),
+    }
+}
+
+/// Newton and linear-solver parameters of `[tlmpm]`.
+fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
+    let d = NewtonParams::default();
+    ImplicitParams {
+        newton: NewtonParams {
+            max_iterations: t.max_iterations.unwrap_or(d.max_iterations),
+            abs_tol: t.abs_tol.unwrap_or(d.abs_tol),
+            rel_tol: t.rel_tol.unwrap_or(d.rel_tol),
+            projection: match t.spd_projection {
+                Some(ProjectionKind::Never) => SpdProjection::Never,
+                Some(ProjectionKind::Always) => SpdProjection::Always,
+                _ => SpdProjection::OnFailure,
+            },
+            ..d
+        },
+        linear: match t.linear_solver {
+            Some(LinearSolverKind::Cg) => LinearSolver::Cg {
+                max_iterations: t.cg_max_iterations.unwrap_or(1000),
+                rel_tol: t.cg_rel_tol.unwrap_or(1e-6),
+            },
+            _ => LinearSolver::Cholesky,
+        },
+    }
+}
+
+/// The per-particle forces (N) of `[[loads]]`: each load's total force shared by the particles
+/// initially in its box, in proportion to their mass. `None` without loads.
+fn load_forces<const D: usize>(
+    scene: &LoadedScene,
+    particles: &Particles<D>,
+) -> Result<Option<Vec<Vector<D>>>, SceneError> {
+    let loads = &scene.scene.loads;
+    if loads.is_empty() {
+        return Ok(None);
+    }
+    let mut forces = vec![Vector::<D>::zeros(); particles.len()];
+    for (i, l) in loads.iter().enumerate() {
+        let (lo, hi) = (vector::<D>(&l.min), vector::<D>(&l.max));
+        let inside = |x: &Vector<D>| (0..D).all(|a| x[a] >= lo[a] && x[a] <= hi[a]);
+        let mass: f64 = particles
+            .x
+            .iter()
+            .zip(&particles.mass)
+            .filter(|(x, _)| inside(x))
+            .map(|(_, m)| m)
+            .sum();
+        if mass <= 0.0 {
+            return Err(scene.error(
+                &format!("loads[{i}].min"),
+                format!(
+                    "load \"{}\" selects no particle: no particle lies in the box {} .. {}",
+                    l.name,
+                    fmt_vec(&l.min),
+                    fmt_vec(&l.max)
+                ),
+            ));
+        }
+        let total = vector::<D>(&l.force);
+        for ((f, x), m) in forces.iter_mut().zip(&particles.x).zip(&particles.mass) {
+            if inside(x) {
+                *f += total * (m / mass);
+            }
+        }
+    }
+    Ok(Some(forces))
 }
 
 /// A warning for each phase that no coupling joins to another: its bodies pass through the

@@ -2,10 +2,13 @@
 //! (which stages run each step and which particle columns exist; DESIGN §5).
 
 use crate::build::{build, AnyBuilt, Built};
+use crate::driver::Driver;
 use crate::error::CliError;
-use crate::scene::{self, Duration, Interval, LoadedScene, TimeStepDef};
+use crate::scene::{
+    self, Duration, Interval, LinearSolverKind, LoadedScene, ProjectionKind, Scene, TimeStepDef,
+};
 use mpm_core::{Dim, DimOps, Material};
-use mpm_explicit::Transfer;
+use mpm_explicit::{ExplicitSolver, Transfer};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -34,22 +37,22 @@ where
 {
     let s = &b.solver;
     let sc = &scene.scene;
-    let _ = writeln!(o, "# stage plan (solver: explicit MLS-MPM, {D}D)");
+    let _ = writeln!(o, "# stage plan (solver: {}, {D}D)", s.name());
     let _ = writeln!(
         o,
         "grid:       {} nodes ({}), dx = {} m, origin {:?} m, kernel {:?}",
-        s.spec.num_nodes(),
-        s.spec
+        s.spec().num_nodes(),
+        s.spec()
             .size
             .iter()
             .map(|n| n.to_string())
             .collect::<Vec<_>>()
             .join(" x "),
-        s.spec.dx,
-        s.spec.origin.as_slice(),
-        s.params.kernel
+        s.spec().dx,
+        s.spec().origin.as_slice(),
+        sc.grid.kernel
     );
-    let _ = writeln!(o, "particles:  {}", s.particles.len());
+    let _ = writeln!(o, "particles:  {}", s.particles().len());
     let phases = sc.phase_count();
     for (body, def) in b.bodies.iter().zip(&sc.bodies) {
         let _ = writeln!(
@@ -72,7 +75,7 @@ where
             sc.couplings.len()
         );
     }
-    for (def, m) in sc.materials.iter().zip(&s.materials) {
+    for (def, m) in sc.materials.iter().zip(s.materials()) {
         let detail = match m {
             Material::Solid(solid) => {
                 let l = solid.elastic.lame();
@@ -87,29 +90,97 @@ where
         };
         let _ = writeln!(o, "material:   \"{}\": {detail}", def.name);
     }
-    let columns = s.particles.columns();
+    let columns = s.particles().columns();
     let _ = writeln!(o, "columns:    {}", columns.names().join(", "));
     let _ = writeln!(
         o,
         "memory:     {} bytes per particle",
-        s.particles.bytes_per_particle()
+        s.particles().bytes_per_particle()
     );
     let stable = s.stable_dt();
+    let bound = match s {
+        Driver::ImplicitTlmpm(_) => "dx/max|v|: backward Euler has no wave-speed limit",
+        _ => "min(dx / max(|v| + c), viscous limit)",
+    };
     let dt_text = match sc.simulation.time_step {
         TimeStepDef::Adaptive {
             cfl,
             dt_max,
             dt_min,
         } => format!(
-            "adaptive: dt = min({cfl}·dx/max(|v|+c), viscous limit, {dt_max:e} s), \
-             at least {dt_min:e} s; at start {:.3e} s",
+            "adaptive: dt = min({cfl}·{bound}, {dt_max:e} s), at least {dt_min:e} s; at start \
+             {:.3e} s",
             stable.min(dt_max)
         ),
         TimeStepDef::Fixed { dt } => format!(
-            "fixed dt = {dt:e} s (stable bound at start {stable:.3e} s{})",
-            if dt > stable { ": ABOVE IT" } else { "" }
+            "fixed dt = {dt:e} s (stable bound {bound} at start {stable:.3e} s{})",
+            if dt > stable && !matches!(s, Driver::ImplicitTlmpm(_)) {
+                ": ABOVE IT"
+            } else {
+                ""
+            }
         ),
     };
+    let plan = s.stage_plan();
+    let details: Vec<Option<String>> = match s {
+        Driver::Explicit(e) => explicit_details(sc, e, &plan, &dt_text),
+        _ => tlmpm_details(sc, &plan, &dt_text),
+    };
+    let _ = writeln!(o, "stages each step:");
+    for (i, (stage, detail)) in plan.iter().zip(details).enumerate() {
+        match detail {
+            Some(d) => {
+                let _ = writeln!(o, "  {:>2}. {stage} — {d}", i + 1);
+            }
+            None => {
+                let _ = writeln!(o, "  {:>2}. {stage}", i + 1);
+            }
+        }
+    }
+    let stop = match sc.simulation.duration {
+        Duration::EndTime { end_time } => format!("at t = {end_time} s"),
+        Duration::Steps { steps } => format!("after {steps} steps"),
+    };
+    let every = |i: &Interval| match i {
+        Interval::Time { interval } => format!("every {interval} s"),
+        Interval::Steps { interval_steps } => format!("every {interval_steps} steps"),
+    };
+    let _ = writeln!(o, "stop:       {stop}");
+    let _ = writeln!(
+        o,
+        "output:     {} {} (fields: {})",
+        sc.output.directory,
+        every(&sc.output.interval),
+        sc.output.fields.join(", ")
+    );
+    match &sc.checkpoint {
+        Some(c) => {
+            let _ = writeln!(
+                o,
+                "checkpoint: {}, keep the newest {}",
+                every(&c.interval),
+                c.keep
+            );
+        }
+        None => {
+            let _ = writeln!(o, "checkpoint: none");
+        }
+    }
+    for w in &b.warnings {
+        let _ = writeln!(o, "warning: {w}");
+    }
+}
+
+/// Details of the explicit MLS-MPM stages in `plan`.
+fn explicit_details<const D: usize>(
+    sc: &Scene,
+    s: &ExplicitSolver<D>,
+    plan: &[String],
+    dt_text: &str,
+) -> Vec<Option<String>>
+where
+    Dim<D>: DimOps<D>,
+{
     let plastic: Vec<&str> = sc
         .materials
         .iter()
@@ -155,7 +226,7 @@ where
     // The solver's own plan lists only the stages this scene runs; the CLI adds details.
     let detail = |stage: &str| -> Option<String> {
         match stage {
-            "time_step" => Some(dt_text.clone()),
+            "time_step" => Some(dt_text.to_string()),
             "sort" => Some("bin particles into grid blocks".into()),
             "grid velocities and gravity" => {
                 Some(format!("gravity {:?} m/s^2", s.params.gravity.as_slice()))
@@ -177,47 +248,54 @@ where
             _ => None,
         }
     };
-    let _ = writeln!(o, "stages each step:");
-    for (i, stage) in s.stage_plan().iter().enumerate() {
-        match detail(stage) {
-            Some(d) => {
-                let _ = writeln!(o, "  {:>2}. {stage} — {d}", i + 1);
-            }
-            None => {
-                let _ = writeln!(o, "  {:>2}. {stage}", i + 1);
-            }
-        }
-    }
-    let stop = match sc.simulation.duration {
-        Duration::EndTime { end_time } => format!("at t = {end_time} s"),
-        Duration::Steps { steps } => format!("after {steps} steps"),
+    plan.iter().map(|st| detail(st)).collect()
+}
+
+/// Details of the TLMPM stages in `plan`.
+fn tlmpm_details(sc: &Scene, plan: &[String], dt_text: &str) -> Vec<Option<String>> {
+    let Some(t) = &sc.tlmpm else {
+        return vec![None; plan.len()];
     };
-    let every = |i: &Interval| match i {
-        Interval::Time { interval } => format!("every {interval} s"),
-        Interval::Steps { interval_steps } => format!("every {interval_steps} steps"),
-    };
-    let _ = writeln!(o, "stop:       {stop}");
-    let _ = writeln!(
-        o,
-        "output:     {} {} (fields: {})",
-        sc.output.directory,
-        every(&sc.output.interval),
-        sc.output.fields.join(", ")
-    );
-    match &sc.checkpoint {
-        Some(c) => {
-            let _ = writeln!(
-                o,
-                "checkpoint: {}, keep the newest {}",
-                every(&c.interval),
-                c.keep
-            );
-        }
-        None => {
-            let _ = writeln!(o, "checkpoint: none");
-        }
-    }
-    for w in &b.warnings {
-        let _ = writeln!(o, "warning: {w}");
-    }
+    let loads: Vec<String> = sc
+        .loads
+        .iter()
+        .map(|l| format!("\"{}\" {:?} N", l.name, l.force))
+        .collect();
+    let obstacles = sc.boundaries.len();
+    plan.iter()
+        .map(|st| match st.as_str() {
+            "time_step" => Some(dt_text.to_string()),
+            st if st.starts_with("p2g") => Some(format!(
+                "{:?} transfer on the reference grid ({} fixed region(s))",
+                sc.simulation.transfer,
+                sc.fixed.len()
+            )),
+            st if st.starts_with("external forces") => Some(format!(
+                "gravity {:?} m/s^2{}",
+                sc.simulation.gravity,
+                if loads.is_empty() {
+                    String::new()
+                } else {
+                    format!("; loads {}", loads.join(", "))
+                }
+            )),
+            st if st.starts_with("contact") => Some(format!(
+                "radius {} m; {obstacles} wall/collider obstacle(s), frictionless penalty",
+                t.contact_radius
+            )),
+            st if st.starts_with("solve: Newton") => Some(format!(
+                "{:?} linear solver, at most {} iterations, rel_tol {:e}, abs_tol {:e} N, SPD \
+                 projection {:?}",
+                t.linear_solver.unwrap_or(LinearSolverKind::Cholesky),
+                t.max_iterations.unwrap_or(30),
+                t.rel_tol.unwrap_or(1e-8),
+                t.abs_tol.unwrap_or(1e-10),
+                t.spd_projection.unwrap_or(ProjectionKind::OnFailure)
+            )),
+            st if st.starts_with("reference update") => t
+                .reference_update
+                .map(|r| format!("epsilon = {}, eta = {}", r.epsilon, r.eta)),
+            _ => None,
+        })
+        .collect()
 }

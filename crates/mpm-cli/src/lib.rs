@@ -4,6 +4,7 @@
 
 pub mod build;
 pub mod check;
+pub mod driver;
 pub mod error;
 pub mod font;
 pub mod info;

@@ -2,11 +2,11 @@
 //! resume, the timing table and `summary.json`.
 
 use crate::build::{build, AnyBuilt, Built};
+use crate::driver::Driver;
 use crate::error::CliError;
 use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene};
 use crate::state::{checkpoint_fields, first_non_finite, restore, snapshot_fields, UNITS};
-use mpm_core::{Diagnostics, Dim, DimOps, Instability};
-use mpm_explicit::ExplicitSolver;
+use mpm_core::{Diagnostics, Dim, DimOps};
 use mpm_io::{read_file, write_file, write_xdmf, FileKind, Header, SeriesEntry};
 use serde_json::json;
 use std::io::{IsTerminal, Write};
@@ -149,7 +149,7 @@ impl Schedule {
 
 /// Everything of a run that is not the solver.
 struct Runner<'a, const D: usize> {
-    solver: ExplicitSolver<D>,
+    solver: Driver<D>,
     scene: &'a LoadedScene,
     out: PathBuf,
     quiet: bool,
@@ -170,6 +170,9 @@ struct Runner<'a, const D: usize> {
     dt_sum: f64,
     steps_this_run: u64,
     retries: u64,
+    /// Newton iterations summed over this run's steps, and the most in one step.
+    newton_total: u64,
+    newton_max: u32,
     first_step: u64,
     first_time: f64,
     io_seconds: f64,
@@ -235,6 +238,8 @@ where
             dt_sum: 0.0,
             steps_this_run: 0,
             retries: 0,
+            newton_total: 0,
+            newton_max: 0,
             io_seconds: 0.0,
             checkpoints_written: Vec::new(),
         };
@@ -289,21 +294,12 @@ where
                 ck.header.dim
             )));
         }
-        let count = self.solver.materials.len();
-        let mut particles = self.solver.particles.clone();
+        let count = self.solver.materials().len();
+        let mut particles = self.solver.particles().clone();
         restore(&mut particles, &ck, count).map_err(bad)?;
-        // Re-check the restored particles against this scene's grid and materials.
-        let s = &self.solver;
-        self.solver = ExplicitSolver::new(
-            s.spec,
-            s.params.clone(),
-            s.materials.clone(),
-            s.boundaries.clone(),
-            particles,
-        )
-        .map_err(|e| bad(format!("does not fit this scene: {e}")))?;
-        self.solver.time = ck.header.time;
-        self.solver.steps = ck.header.step;
+        // Rebuild the solver around the restored particles, re-checking them against this
+        // scene's grid and materials.
+        self.solver.resume(particles, &ck).map_err(bad)?;
         self.first_step = ck.header.step;
         self.first_time = ck.header.time;
         self.last_dt = ck.header.dt;
@@ -368,8 +364,8 @@ where
             eprintln!(
                 "resuming from {} at t = {:.6} s, step {}",
                 path.display(),
-                self.solver.time,
-                self.solver.steps
+                self.solver.time(),
+                self.solver.steps()
             );
         }
         Ok(())
@@ -383,8 +379,8 @@ where
     fn header(&self, kind: FileKind, attrs: Vec<(String, f64)>) -> Header {
         Header {
             kind,
-            time: self.solver.time,
-            step: self.solver.steps,
+            time: self.solver.time(),
+            step: self.solver.steps(),
             dt: self.last_dt,
             dim: D as u32,
             units: UNITS.to_string(),
@@ -398,15 +394,16 @@ where
     fn write_snapshot(&mut self) -> Result<(), CliError> {
         let t = Instant::now();
         let fields = snapshot_fields(
-            &self.solver.particles,
-            &self.solver.materials,
+            self.solver.particles(),
+            self.solver.materials(),
             &self.scene.scene.output.fields,
         );
         if let Some((name, p, v)) = first_non_finite(&fields) {
             return Err(CliError::Instability(format!(
                 "error: non-finite {name} = {v} at particle {p} at step {} (t = {:.6e} s); \
                  snapshot not written",
-                self.solver.steps, self.solver.time
+                self.solver.steps(),
+                self.solver.time()
             )));
         }
         let name = snapshot_name(self.frame);
@@ -416,14 +413,14 @@ where
         );
         write_file(&self.out.join(&name), &header, &fields)?;
         self.series.push(SeriesEntry {
-            time: self.solver.time,
+            time: self.solver.time(),
             file: name,
             dim: D as u32,
             fields: fields.iter().map(|f| f.spec()).collect(),
         });
         write_xdmf(&self.out.join("run.xmf"), &self.series)?;
         self.frame += 1;
-        self.last_snapshot_step = Some(self.solver.steps);
+        self.last_snapshot_step = Some(self.solver.steps());
         self.io_seconds += t.elapsed().as_secs_f64();
         Ok(())
     }
@@ -431,11 +428,13 @@ where
     /// Writes a checkpoint of the full state and deletes the oldest beyond `keep`.
     fn write_checkpoint(&mut self, keep: u32) -> Result<(), CliError> {
         let t = Instant::now();
-        let fields = checkpoint_fields(&self.solver.particles);
+        let (extra_fields, extra_attrs) = self.solver.checkpoint_extra();
+        let mut fields = checkpoint_fields(self.solver.particles());
+        fields.extend(extra_fields);
         if let Some((name, p, v)) = first_non_finite(&fields) {
             return Err(CliError::Instability(format!(
                 "error: non-finite {name} = {v} at particle {p} at step {}; checkpoint not written",
-                self.solver.steps
+                self.solver.steps()
             )));
         }
         let mut attrs = vec![
@@ -445,6 +444,7 @@ where
         if let Some((s, _)) = &self.checkpoint_schedule {
             attrs.push((ATTR_NEXT_CHECKPOINT.to_string(), s.next));
         }
+        attrs.extend(extra_attrs);
         let i = &self.initial;
         let mut init = vec![i.mass];
         init.extend((0..3).map(|a| if a < D { i.momentum[a] } else { 0.0 }));
@@ -460,10 +460,10 @@ where
         ]) {
             attrs.push((n.to_string(), v));
         }
-        let name = checkpoint_name(self.solver.steps);
+        let name = checkpoint_name(self.solver.steps());
         let header = self.header(FileKind::Checkpoint, attrs);
         write_file(&self.out.join(&name), &header, &fields)?;
-        self.last_checkpoint_step = Some(self.solver.steps);
+        self.last_checkpoint_step = Some(self.solver.steps());
         self.checkpoints_written.push(name);
         let all = numbered_files(&self.out, "ckpt_");
         let excess = all.len().saturating_sub(keep as usize);
@@ -476,8 +476,8 @@ where
 
     fn finished(&self) -> bool {
         match self.scene.scene.simulation.duration {
-            Duration::EndTime { end_time } => self.solver.time >= end_time,
-            Duration::Steps { steps } => self.solver.steps >= steps,
+            Duration::EndTime { end_time } => self.solver.time() >= end_time,
+            Duration::Steps { steps } => self.solver.steps() >= steps,
         }
     }
 
@@ -485,10 +485,10 @@ where
     fn progress(&self) -> f64 {
         let f = match self.scene.scene.simulation.duration {
             Duration::EndTime { end_time } => {
-                (self.solver.time - self.first_time) / (end_time - self.first_time)
+                (self.solver.time() - self.first_time) / (end_time - self.first_time)
             }
             Duration::Steps { steps } => {
-                (self.solver.steps - self.first_step) as f64
+                (self.solver.steps() - self.first_step) as f64
                     / steps.saturating_sub(self.first_step).max(1) as f64
             }
         };
@@ -501,14 +501,14 @@ where
 
     fn run(mut self) -> Result<(), CliError> {
         let wall = Instant::now();
-        let n = self.solver.particles.len();
+        let n = self.solver.particles().len();
         if !self.quiet {
             eprintln!(
                 "{}: {}D, {n} particles, grid {:?} nodes (dx = {} m), {} threads, output in {}",
                 self.scene.path.display(),
                 D,
-                self.solver.spec.size,
-                self.solver.spec.dx,
+                self.solver.spec().size,
+                self.solver.spec().dx,
                 rayon::current_num_threads(),
                 self.out.display()
             );
@@ -528,13 +528,17 @@ where
                     self.dt_sum += info.dt;
                     self.steps_this_run += 1;
                     self.retries += info.retries as u64;
+                    if let Some(n) = info.newton_iterations {
+                        self.newton_total += n as u64;
+                        self.newton_max = self.newton_max.max(n);
+                    }
                 }
                 Err(e) => {
-                    failure = Some(instability_error(&e));
+                    failure = Some(e);
                     break;
                 }
             }
-            let (time, steps) = (self.solver.time, self.solver.steps);
+            let (time, steps) = (self.solver.time(), self.solver.steps());
             if self.snapshot_schedule.due(time, steps) {
                 if let Err(e) = self.write_snapshot() {
                     failure = Some(e);
@@ -553,21 +557,21 @@ where
             }
             progress.update(
                 self.progress(),
-                self.solver.time,
-                self.solver.steps,
+                self.solver.time(),
+                self.solver.steps(),
                 self.last_dt,
                 wall,
             );
         }
         progress.finish();
         if failure.is_none() {
-            if self.last_snapshot_step != Some(self.solver.steps) {
+            if self.last_snapshot_step != Some(self.solver.steps()) {
                 if let Err(e) = self.write_snapshot() {
                     failure = Some(e);
                 }
             }
             if let Some((_, c)) = self.checkpoint_schedule {
-                if failure.is_none() && self.last_checkpoint_step != Some(self.solver.steps) {
+                if failure.is_none() && self.last_checkpoint_step != Some(self.solver.steps()) {
                     if let Err(e) = self.write_checkpoint(c.keep) {
                         failure = Some(e);
                     }
@@ -586,7 +590,7 @@ where
         if let Some(e) = failure {
             eprintln!(
                 "run stopped after {} steps; outputs written so far are kept in {}",
-                self.solver.steps,
+                self.solver.steps(),
                 self.out.display()
             );
             return Err(e);
@@ -602,33 +606,42 @@ where
     }
 
     fn print_report(&self, wall_s: f64) {
-        let table = self.solver.stats.table();
-        let stage_total: f64 = table.iter().map(|(_, s)| s).sum();
+        let table = self.solver.stage_table();
+        let stage_total: f64 = table
+            .iter()
+            .filter(|(n, _)| !Driver::<D>::is_breakdown(n))
+            .map(|(_, s)| s)
+            .sum();
         let mut out = String::new();
         out.push_str(&format!(
             "done: {} steps ({} this run) to t = {:.6} s, {} particles, {} snapshots, wall {:.2} s\n",
-            self.solver.steps,
+            self.solver.steps(),
             self.steps_this_run,
-            self.solver.time,
-            self.solver.particles.len(),
+            self.solver.time(),
+            self.solver.particles().len(),
             self.frame,
             wall_s
         ));
-        out.push_str("stage           seconds   share\n");
+        out.push_str("stage                    seconds   share\n");
         for (name, s) in table.iter() {
+            let name = if Driver::<D>::is_breakdown(name) {
+                format!("  {name}")
+            } else {
+                name.to_string()
+            };
             out.push_str(&format!(
-                "{name:<14} {s:>9.3}  {:>5.1}%\n",
+                "{name:<23} {s:>9.3}  {:>5.1}%\n",
                 100.0 * s / wall_s.max(1e-12)
             ));
         }
         out.push_str(&format!(
-            "{:<14} {:>9.3}  {:>5.1}%\n",
+            "{:<23} {:>9.3}  {:>5.1}%\n",
             "output (I/O)",
             self.io_seconds,
             100.0 * self.io_seconds / wall_s.max(1e-12)
         ));
-        out.push_str(&format!("{:<14} {:>9.3}\n", "solver total", stage_total));
-        out.push_str(&format!("{:<14} {:>9.3}\n", "wall total", wall_s));
+        out.push_str(&format!("{:<23} {:>9.3}\n", "solver total", stage_total));
+        out.push_str(&format!("{:<23} {:>9.3}\n", "wall total", wall_s));
         if self.steps_this_run > 0 {
             out.push_str(&format!(
                 "dt min/mean/max: {:.3e} / {:.3e} / {:.3e} s\n",
@@ -636,6 +649,13 @@ where
                 self.dt_sum / self.steps_this_run as f64,
                 self.dt_max
             ));
+            if self.newton_max > 0 {
+                out.push_str(&format!(
+                    "Newton iterations per step mean/max: {:.2} / {}\n",
+                    self.newton_total as f64 / self.steps_this_run as f64,
+                    self.newton_max
+                ));
+            }
         }
         out.push_str(&format!(
             "summary: {}\n",
@@ -671,8 +691,7 @@ where
         let e_abs = (fin.total_energy() - ini.total_energy()).abs();
         let stages: serde_json::Map<String, serde_json::Value> = self
             .solver
-            .stats
-            .table()
+            .stage_table()
             .iter()
             .map(|(n, s)| (n.to_string(), json!(s)))
             .collect();
@@ -695,14 +714,19 @@ where
             "status": status,
             "error": error,
             "dim": D,
-            "solver": "explicit",
-            "particles": self.solver.particles.len(),
-            "steps": self.solver.steps,
+            "solver": self.solver.name(),
+            "particles": self.solver.particles().len(),
+            "steps": self.solver.steps(),
             "steps_this_run": self.steps_this_run,
             "resumed_from_step": if self.first_step > 0 { json!(self.first_step) } else { serde_json::Value::Null },
-            "time": self.solver.time,
+            "time": self.solver.time(),
             "dt": dt,
             "retries": self.retries,
+            "newton_iterations": if self.newton_max > 0 {
+                json!({ "total": self.newton_total, "max_per_step": self.newton_max })
+            } else {
+                serde_json::Value::Null
+            },
             "snapshots": self.frame,
             "checkpoints": self.checkpoints_written,
             "wall_time": {
@@ -743,11 +767,6 @@ where
             "warnings": self.warnings,
         })
     }
-}
-
-/// The error for a failed guard check.
-fn instability_error(e: &Instability) -> CliError {
-    CliError::Instability(format!("error: numerical {e}"))
 }
 
 /// Progress on stderr: a refreshed line on a terminal, occasional plain lines otherwise,

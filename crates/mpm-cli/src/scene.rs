@@ -17,6 +17,12 @@ use mpm_core::{Columns, Material};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+mod tlmpm;
+pub use tlmpm::{
+    FixedDef, IntegratorKind, LinearSolverKind, LoadDef, ProjectionKind, ReferenceUpdateDef,
+    TlmpmDef,
+};
+
 // ------------------------------------------------------------------------------------------
 // Keyword enums shared by the raw and resolved forms.
 // ------------------------------------------------------------------------------------------
@@ -27,7 +33,7 @@ use std::path::{Path, PathBuf};
 pub enum SolverKind {
     /// Explicit MLS-MPM (`mpm-explicit`).
     Explicit,
-    /// Implicit total-Lagrangian MPM (not available yet).
+    /// Total-Lagrangian MPM (`mpm-tlmpm`), implicit or explicit; see `[tlmpm]`.
     Tlmpm,
     /// DIQ-MPM (not available yet).
     Diq,
@@ -275,6 +281,11 @@ struct RawScene {
     dissolution: Option<RawDissolution>,
     output: Option<RawOutput>,
     checkpoint: Option<RawCheckpoint>,
+    tlmpm: Option<tlmpm::RawTlmpm>,
+    #[serde(default)]
+    fixed: Vec<tlmpm::RawFixed>,
+    #[serde(default)]
+    loads: Vec<tlmpm::RawLoad>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -491,6 +502,15 @@ pub struct Scene {
     /// `[checkpoint]`, if checkpoints are written.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub checkpoint: Option<CheckpointDef>,
+    /// `[tlmpm]`: present exactly when `simulation.solver = "tlmpm"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tlmpm: Option<TlmpmDef>,
+    /// `[[fixed]]`: Dirichlet regions of the TLMPM reference grid.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub fixed: Vec<FixedDef>,
+    /// `[[loads]]`: constant forces on the TLMPM particles.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub loads: Vec<LoadDef>,
 }
 
 /// `[simulation]`.
@@ -1337,6 +1357,7 @@ fn resolve(c: &mut Checker<'_>, raw: RawScene, path: &Path) -> Option<Scene> {
         &stem,
     );
     let checkpoint = raw.checkpoint.as_ref().map(|ck| resolve_checkpoint(c, ck));
+    let tl = tlmpm::resolve(c, &raw, &sim, (grid.dx, &materials), &boundaries);
     Some(Scene {
         simulation: sim,
         grid,
@@ -1349,6 +1370,9 @@ fn resolve(c: &mut Checker<'_>, raw: RawScene, path: &Path) -> Option<Scene> {
         dissolution,
         output,
         checkpoint,
+        tlmpm: tl.tlmpm,
+        fixed: tl.fixed,
+        loads: tl.loads,
     })
 }
 
@@ -1997,14 +2021,10 @@ fn resolve_simulation(c: &mut Checker<'_>, s: &RawSimulation) -> Option<Simulati
     };
     let solver = s.solver.unwrap_or(SolverKind::Explicit);
     match solver {
-        SolverKind::Explicit => {}
-        SolverKind::Tlmpm => c.err(
-            "simulation.solver",
-            "solver \"tlmpm\" is not available yet (only \"explicit\" is)",
-        ),
+        SolverKind::Explicit | SolverKind::Tlmpm => {}
         SolverKind::Diq => c.err(
             "simulation.solver",
-            "solver \"diq\" is not available yet (only \"explicit\" is)",
+            "solver \"diq\" is not available yet (\"explicit\" and \"tlmpm\" are)",
         ),
     }
     let duration = match (s.end_time, s.steps) {

@@ -19,12 +19,14 @@ fn f64_field(name: &str, unit: &str, values: Vec<f64>, shape: Vec<usize>) -> Fie
     }
 }
 
-fn vectors<const D: usize>(name: &str, unit: &str, v: &[Vector<D>]) -> Field {
+/// A `[N, D]` vector field.
+pub fn vectors<const D: usize>(name: &str, unit: &str, v: &[Vector<D>]) -> Field {
     let values = v.iter().flat_map(|x| x.iter().copied()).collect();
     f64_field(name, unit, values, vec![v.len(), D])
 }
 
-fn matrices<const D: usize>(name: &str, unit: &str, m: &[Matrix<D>]) -> Field {
+/// A `[N, D, D]` matrix field, row-major.
+pub fn matrices<const D: usize>(name: &str, unit: &str, m: &[Matrix<D>]) -> Field {
     let mut values = Vec::with_capacity(m.len() * D * D);
     for a in m {
         for i in 0..D {

@@ -291,21 +291,19 @@ fn missing_or_unreadable_meshes() {
 }
 
 #[test]
-fn solvers_not_available_yet() {
+fn solver_diq_is_not_available_yet() {
     let d = tmpdir("solver");
-    for s in ["tlmpm", "diq"] {
-        let t = WATER_2D.replace("dim = 2", &format!("dim = 2\nsolver = \"{s}\""));
-        expect_bad(
-            &d,
-            "s.toml",
-            &t,
-            "check",
-            "simulation.solver",
-            Some("solver ="),
-        );
-        let o = cli(&["check", &d.join("s.toml").to_string_lossy()]);
-        assert!(stderr(&o).contains("not available yet"), "{}", stderr(&o));
-    }
+    let t = WATER_2D.replace("dim = 2", "dim = 2\nsolver = \"diq\"");
+    expect_bad(
+        &d,
+        "s.toml",
+        &t,
+        "check",
+        "simulation.solver",
+        Some("solver ="),
+    );
+    let o = cli(&["check", &d.join("s.toml").to_string_lossy()]);
+    assert!(stderr(&o).contains("not available yet"), "{}", stderr(&o));
 }
 
 #[test]
@@ -623,4 +621,97 @@ fn multigrid_settings_are_checked_at_their_keys() {
     for (i, (text, key, line)) in cases.iter().enumerate() {
         expect_bad(&d, &format!("mg{i}.toml"), text, "check", key, Some(line));
     }
+}
+
+#[test]
+fn tlmpm_keys_fit_their_solver() {
+    let d = tmpdir("tlmpm-keys");
+    // TLMPM tables in an explicit scene.
+    for (table, key) in [
+        ("[tlmpm]\ncontact = true\n", "tlmpm"),
+        ("[[fixed]]\nmin = [0.0, 0.0]\nmax = [0.1, 0.1]\n", "fixed"),
+        (
+            "[[loads]]\nmin = [0.0, 0.0]\nmax = [0.1, 0.1]\nforce = [0.0, 1.0]\n",
+            "loads",
+        ),
+    ] {
+        let t = format!("{WATER_2D}\n{table}");
+        let first = table.lines().next().unwrap();
+        expect_bad(&d, "explicit.toml", &t, "check", key, Some(first));
+    }
+    let tl = TLMPM_SNOW_2D;
+    let cases: Vec<(String, &str, &str)> = vec![
+        // Plastic snow without A-ULMPM.
+        (
+            tl.replace("[tlmpm.reference_update]\nepsilon = 0.01\neta = 0.01\n", ""),
+            "materials[0].plasticity",
+            "[[materials]]",
+        ),
+        // Fluids are not TLMPM materials.
+        (
+            tl.replace("preset = \"snow\"\nE = 1e4", "preset = \"water\""),
+            "materials[0].model",
+            "[[materials]]",
+        ),
+        // Sticky walls, friction and moving colliders are not penalty obstacles.
+        (
+            tl.replace("contact = \"separate\"", "contact = \"sticky\""),
+            "boundaries[0].contact",
+            "contact = \"sticky\"",
+        ),
+        (
+            tl.replace(
+                "contact = \"separate\"",
+                "contact = \"separate\"\nfriction = 0.3",
+            ),
+            "boundaries[0].friction",
+            "friction = 0.3",
+        ),
+        // FLIP, explicit-only simulation keys and Newton keys with the explicit integrator.
+        (
+            tl.replace("dt = 2e-3", "dt = 2e-3\ntransfer = \"flip\""),
+            "simulation.transfer",
+            "transfer =",
+        ),
+        (
+            tl.replace("dt = 2e-3", "dt = 2e-3\nvolume_update = \"reestimate\""),
+            "simulation.volume_update",
+            "volume_update",
+        ),
+        (
+            tl.replace(
+                "integrator = \"implicit\"",
+                "integrator = \"explicit\"\nlinear_solver = \"cg\"",
+            ),
+            "tlmpm.linear_solver",
+            "linear_solver",
+        ),
+        (
+            tl.replace("eta = 0.01", "eta = 1.5"),
+            "tlmpm.reference_update.eta",
+            "eta = 1.5",
+        ),
+        (
+            tl.replace("contact = true", "contact = true\nrel_tol = 2.0"),
+            "tlmpm.rel_tol",
+            "rel_tol",
+        ),
+    ];
+    for (i, (text, key, line)) in cases.iter().enumerate() {
+        assert_ne!(text, tl, "case {i} changed nothing");
+        expect_bad(&d, &format!("tl{i}.toml"), text, "check", key, Some(line));
+    }
+    // A load that selects no particle is found when the scene is built.
+    let t = format!(
+        "{tl}\n[[loads]]\nname = \"tip\"\nmin = [0.5, 0.3]\nmax = [0.55, 0.35]\n\
+         force = [0.0, -1.0]\n"
+    );
+    expect_bad(
+        &d,
+        "load.toml",
+        &t,
+        "run",
+        "loads[0].min",
+        Some("min = [0.5, 0.3]"),
+    );
 }

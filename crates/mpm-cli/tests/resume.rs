@@ -166,3 +166,10 @@ fn resume_multigrid_2d_is_bitwise() {
     // material and phase on both sides of the checkpoint.
     check_resume("multigrid", POROUS_MIX_2D, 30, 60);
 }
+
+#[test]
+fn resume_tlmpm_2d_is_bitwise() {
+    // Implicit TLMPM with contact and A-ULMPM reference updates of a snow column on both sides
+    // of the checkpoint: the reference positions and the G and B columns are restored.
+    check_resume("tlmpm", TLMPM_SNOW_2D, 20, 40);
+}

@@ -286,6 +286,11 @@ where
         &mut self.core.particles.v
     }
 
+    /// The applied particle forces (N); empty when none were set.
+    pub fn particle_forces(&self) -> &[Vector<D>] {
+        &self.core.particle_forces
+    }
+
     /// Applied forces on the particles (N), zero until set. They enter every later step as
     /// external nodal forces `Σ_p W_i(X_p) f_p` held over the step (a tip load, a manufactured
     /// body force `m_p b(X_p, t)`), without touching the particle velocities, so they also

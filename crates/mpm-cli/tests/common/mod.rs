@@ -333,3 +333,51 @@ pub fn line_of(text: &str, prefix: &str) -> usize {
         .map(|i| i + 1)
         .unwrap_or_else(|| panic!("no line starting with {prefix:?}"))
 }
+
+/// A TLMPM scene: a snow column collapsing on penalty walls with A-ULMPM reference updates
+/// (implicit, Newton), checkpointing every 10 steps.
+pub const TLMPM_SNOW_2D: &str = r#"
+[simulation]
+dim = 2
+solver = "tlmpm"
+steps = 40
+dt = 2e-3
+gravity = [0.0, -9.81]
+
+[grid]
+min = [0.0, 0.0]
+max = [0.6, 0.4]
+dx = 0.02
+
+[tlmpm]
+integrator = "implicit"
+contact = true
+
+[tlmpm.reference_update]
+epsilon = 0.01
+eta = 0.01
+
+[[materials]]
+name = "snow"
+preset = "snow"
+E = 1e4
+
+[[bodies]]
+name = "column"
+material = "snow"
+shape = "box"
+min = [0.25, 0.07]
+max = [0.35, 0.27]
+per_axis = 2
+
+[[boundaries]]
+type = "walls"
+contact = "separate"
+
+[output]
+interval_steps = 10
+
+[checkpoint]
+interval_steps = 10
+keep = 10
+"#;

@@ -1,0 +1,453 @@
+//! The scene keys of `solver = "tlmpm"` (total-Lagrangian MPM, `mpm-tlmpm`): the `[tlmpm]`
+//! table, `[[fixed]]` Dirichlet regions and `[[loads]]`, and the checks that keep the explicit
+//! solver's keys out of TLMPM scenes and the other way round.
+
+use super::{
+    BoundaryDef, Checker, ContactName, MaterialDef, ModelDef, PlasticityDef, RawScene, Simulation,
+    SolverKind, TransferKind,
+};
+use serde::{Deserialize, Serialize};
+
+/// Time integration of the TLMPM solver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IntegratorKind {
+    /// Backward Euler solved by Newton's method.
+    Implicit,
+    /// Symplectic Euler (explicit TLMPM).
+    Explicit,
+}
+
+/// Linear solver of the Newton system.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LinearSolverKind {
+    /// Sparse Cholesky with the symbolic factorisation reused.
+    Cholesky,
+    /// Matrix-free Jacobi-preconditioned conjugate gradients.
+    Cg,
+}
+
+/// Positive-definiteness treatment of the Newton tangent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProjectionKind {
+    /// The exact tangent; an indefinite system fails the step.
+    Never,
+    /// Project every particle's elasticity tensor onto the SPD cone.
+    Always,
+    /// The exact tangent, projected only when the exact system is not positive definite.
+    OnFailure,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawTlmpm {
+    integrator: Option<IntegratorKind>,
+    linear_solver: Option<LinearSolverKind>,
+    cg_max_iterations: Option<u32>,
+    cg_rel_tol: Option<f64>,
+    max_iterations: Option<u32>,
+    abs_tol: Option<f64>,
+    rel_tol: Option<f64>,
+    spd_projection: Option<ProjectionKind>,
+    contact: Option<bool>,
+    contact_radius: Option<f64>,
+    reference_update: Option<RawReferenceUpdate>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawReferenceUpdate {
+    epsilon: f64,
+    eta: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawFixed {
+    min: Vec<f64>,
+    max: Vec<f64>,
+    axes: Option<Vec<bool>>,
+    velocity: Option<Vec<f64>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawLoad {
+    name: Option<String>,
+    min: Vec<f64>,
+    max: Vec<f64>,
+    force: Vec<f64>,
+}
+
+/// `[tlmpm]`: the TLMPM solver's settings.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TlmpmDef {
+    /// Implicit (Newton) or explicit time integration.
+    pub integrator: IntegratorKind,
+    /// Newton linear solver (implicit only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub linear_solver: Option<LinearSolverKind>,
+    /// CG iteration cap per Newton iteration (with `linear_solver = "cg"`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cg_max_iterations: Option<u32>,
+    /// CG relative tolerance (dimensionless, with `linear_solver = "cg"`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cg_rel_tol: Option<f64>,
+    /// Newton iteration cap per step (implicit only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_iterations: Option<u32>,
+    /// Newton absolute residual tolerance (N, implicit only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub abs_tol: Option<f64>,
+    /// Newton relative residual tolerance (dimensionless, implicit only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rel_tol: Option<f64>,
+    /// Tangent projection (implicit only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spd_projection: Option<ProjectionKind>,
+    /// Particle–particle penalty contact (Eq. 4).
+    pub contact: bool,
+    /// Effective contact radius of every particle (m); default ½ Δx, the choice of diq-mpm
+    /// §5.3. A radius of half the particle spacing lets the particles of two bodies interleave
+    /// once they overlap, where the pair forces cancel.
+    pub contact_radius: f64,
+    /// A-ULMPM reference updates, if on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_update: Option<ReferenceUpdateDef>,
+}
+
+/// `[tlmpm.reference_update]`: the A-ULMPM trigger.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ReferenceUpdateDef {
+    /// Threshold ε on `|det F^{(r,n)} − 1|` (dimensionless).
+    pub epsilon: f64,
+    /// Fraction η of marked particles that triggers an update (dimensionless).
+    pub eta: f64,
+}
+
+/// One `[[fixed]]` region: grid nodes whose reference position lies in the box.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FixedDef {
+    /// Lower corner (m), reference configuration.
+    pub min: Vec<f64>,
+    /// Upper corner (m), reference configuration.
+    pub max: Vec<f64>,
+    /// Which velocity components are prescribed.
+    pub axes: Vec<bool>,
+    /// Prescribed velocity of those components (m/s).
+    pub velocity: Vec<f64>,
+}
+
+/// One `[[loads]]` entry: a constant force on the particles initially in a box.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LoadDef {
+    /// Name, for messages.
+    pub name: String,
+    /// Lower corner (m) of the box selecting the particles at t = 0.
+    pub min: Vec<f64>,
+    /// Upper corner (m).
+    pub max: Vec<f64>,
+    /// Total force (N; N/m in 2D), shared by the selected particles in proportion to mass.
+    pub force: Vec<f64>,
+}
+
+/// The TLMPM parts of a scene.
+pub(super) struct Resolved {
+    pub tlmpm: Option<TlmpmDef>,
+    pub fixed: Vec<FixedDef>,
+    pub loads: Vec<LoadDef>,
+}
+
+/// A box `[min, max]` of `d` components with `max > min` per axis.
+fn resolve_box(c: &mut Checker<'_>, key: &str, min: &[f64], max: &[f64], d: usize) {
+    let min = c.vector(&format!("{key}.min"), min, d);
+    let max = c.vector(&format!("{key}.max"), max, d);
+    if min.len() == d && max.len() == d {
+        for a in 0..d {
+            if max[a] < min[a] {
+                c.err(
+                    &format!("{key}.max[{a}]"),
+                    format!("must not be below min[{a}] = {}", min[a]),
+                );
+            }
+        }
+    }
+}
+
+/// Resolves `[tlmpm]`, `[[fixed]]` and `[[loads]]`, and checks that the rest of the scene fits
+/// the chosen solver.
+pub(super) fn resolve(
+    c: &mut Checker<'_>,
+    raw: &RawScene,
+    sim: &Simulation,
+    (dx, materials): (f64, &[MaterialDef]),
+    boundaries: &[BoundaryDef],
+) -> Resolved {
+    let d = sim.dim;
+    if sim.solver != SolverKind::Tlmpm {
+        let why = "unless simulation.solver = \"tlmpm\"";
+        c.not_applicable("tlmpm", raw.tlmpm.is_some(), why);
+        c.not_applicable("fixed", !raw.fixed.is_empty(), why);
+        c.not_applicable("loads", !raw.loads.is_empty(), why);
+        return Resolved {
+            tlmpm: None,
+            fixed: Vec::new(),
+            loads: Vec::new(),
+        };
+    }
+    check_rest_of_scene(c, raw, sim, boundaries);
+    let t = raw.tlmpm.as_ref();
+    let integrator = t
+        .and_then(|t| t.integrator)
+        .unwrap_or(IntegratorKind::Implicit);
+    let implicit = integrator == IntegratorKind::Implicit;
+    let opt = |present: bool, key: &str, c: &mut Checker<'_>| {
+        if !implicit {
+            c.not_applicable(
+                &format!("tlmpm.{key}"),
+                present,
+                "with integrator = \"explicit\"",
+            );
+        }
+        implicit
+    };
+    let linear_solver = opt(
+        t.is_some_and(|t| t.linear_solver.is_some()),
+        "linear_solver",
+        c,
+    )
+    .then(|| {
+        t.and_then(|t| t.linear_solver)
+            .unwrap_or(LinearSolverKind::Cholesky)
+    });
+    let cg = linear_solver == Some(LinearSolverKind::Cg);
+    for (key, present) in [
+        (
+            "cg_max_iterations",
+            t.is_some_and(|t| t.cg_max_iterations.is_some()),
+        ),
+        ("cg_rel_tol", t.is_some_and(|t| t.cg_rel_tol.is_some())),
+    ] {
+        if !cg {
+            c.not_applicable(
+                &format!("tlmpm.{key}"),
+                present,
+                "unless linear_solver = \"cg\"",
+            );
+        }
+    }
+    let cg_max_iterations = cg.then(|| {
+        let n = t.and_then(|t| t.cg_max_iterations).unwrap_or(1000);
+        if n == 0 {
+            c.err("tlmpm.cg_max_iterations", "must be at least 1");
+        }
+        n
+    });
+    let cg_rel_tol = cg.then(|| {
+        c.num(
+            "tlmpm.cg_rel_tol",
+            t.and_then(|t| t.cg_rel_tol).unwrap_or(1e-6),
+            |x| x > 0.0 && x < 1.0,
+            "must lie in (0, 1)",
+        )
+    });
+    let max_iterations = opt(
+        t.is_some_and(|t| t.max_iterations.is_some()),
+        "max_iterations",
+        c,
+    )
+    .then(|| {
+        let n = t.and_then(|t| t.max_iterations).unwrap_or(30);
+        if !(1..=1000).contains(&n) {
+            c.err(
+                "tlmpm.max_iterations",
+                format!("must lie in 1..=1000 (got {n})"),
+            );
+        }
+        n
+    });
+    let abs_tol = opt(t.is_some_and(|t| t.abs_tol.is_some()), "abs_tol", c)
+        .then(|| c.positive("tlmpm.abs_tol", t.and_then(|t| t.abs_tol).unwrap_or(1e-10)));
+    let rel_tol = opt(t.is_some_and(|t| t.rel_tol.is_some()), "rel_tol", c).then(|| {
+        c.num(
+            "tlmpm.rel_tol",
+            t.and_then(|t| t.rel_tol).unwrap_or(1e-8),
+            |x| x > 0.0 && x < 1.0,
+            "must lie in (0, 1)",
+        )
+    });
+    let spd_projection = opt(
+        t.is_some_and(|t| t.spd_projection.is_some()),
+        "spd_projection",
+        c,
+    )
+    .then(|| {
+        t.and_then(|t| t.spd_projection)
+            .unwrap_or(ProjectionKind::OnFailure)
+    });
+    let contact = t.and_then(|t| t.contact).unwrap_or(true);
+    let contact_radius = c.positive(
+        "tlmpm.contact_radius",
+        t.and_then(|t| t.contact_radius).unwrap_or(0.5 * dx),
+    );
+    let reference_update =
+        t.and_then(|t| t.reference_update.as_ref())
+            .map(|r| ReferenceUpdateDef {
+                epsilon: c.non_negative("tlmpm.reference_update.epsilon", r.epsilon),
+                eta: c.num(
+                    "tlmpm.reference_update.eta",
+                    r.eta,
+                    |x| (0.0..=1.0).contains(&x),
+                    "must lie in [0, 1]",
+                ),
+            });
+    for (i, m) in materials.iter().enumerate() {
+        let plastic = match m.model {
+            ModelDef::NeoHookean(s)
+            | ModelDef::FixedCorotated(s)
+            | ModelDef::Hencky(s)
+            | ModelDef::LinearElastic(s)
+            | ModelDef::StableNeoHookean(s) => !matches!(s.plasticity, PlasticityDef::None),
+            ModelDef::Tait(_) => {
+                c.err(
+                    &format!("materials[{i}].model"),
+                    format!(
+                        "material \"{}\" is a fluid; solver \"tlmpm\" simulates solids only",
+                        m.name
+                    ),
+                );
+                false
+            }
+        };
+        if plastic && reference_update.is_none() {
+            c.err(
+                &format!("materials[{i}].plasticity"),
+                format!(
+                    "plastic material \"{}\" needs A-ULMPM reference updates with solver \
+                     \"tlmpm\": add [tlmpm.reference_update] (e.g. epsilon = 0.01, eta = 0.01)",
+                    m.name
+                ),
+            );
+        }
+    }
+    let fixed = raw
+        .fixed
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let key = format!("fixed[{i}]");
+            resolve_box(c, &key, &f.min, &f.max, d);
+            let axes = match &f.axes {
+                Some(a) if a.len() != d => {
+                    c.err(
+                        &format!("{key}.axes"),
+                        format!("must have {d} entries (dim = {d}), got {}", a.len()),
+                    );
+                    vec![true; d]
+                }
+                Some(a) => a.clone(),
+                None => vec![true; d],
+            };
+            let velocity = match &f.velocity {
+                Some(v) => c.vector(&format!("{key}.velocity"), v, d),
+                None => vec![0.0; d],
+            };
+            FixedDef {
+                min: f.min.clone(),
+                max: f.max.clone(),
+                axes,
+                velocity,
+            }
+        })
+        .collect();
+    let loads: Vec<LoadDef> = raw
+        .loads
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let key = format!("loads[{i}]");
+            resolve_box(c, &key, &l.min, &l.max, d);
+            LoadDef {
+                name: l.name.clone().unwrap_or_else(|| format!("load{i}")),
+                min: l.min.clone(),
+                max: l.max.clone(),
+                force: c.vector(&format!("{key}.force"), &l.force, d),
+            }
+        })
+        .collect();
+    Resolved {
+        tlmpm: Some(TlmpmDef {
+            integrator,
+            linear_solver,
+            cg_max_iterations,
+            cg_rel_tol,
+            max_iterations,
+            abs_tol,
+            rel_tol,
+            spd_projection,
+            contact,
+            contact_radius,
+            reference_update,
+        }),
+        fixed,
+        loads,
+    }
+}
+
+/// The keys of the explicit solver that TLMPM does not use, and boundaries it cannot model:
+/// its walls and colliders are static, frictionless penalty obstacles.
+fn check_rest_of_scene(
+    c: &mut Checker<'_>,
+    raw: &RawScene,
+    sim: &Simulation,
+    boundaries: &[BoundaryDef],
+) {
+    let why = "with solver \"tlmpm\"";
+    let s = &raw.simulation;
+    for (key, present) in [
+        ("simulation.volume_update", s.volume_update.is_some()),
+        ("simulation.initial_volume", s.initial_volume.is_some()),
+        ("simulation.soft_walls", s.soft_walls.is_some()),
+        ("couplings", !raw.couplings.is_empty()),
+        ("porous", raw.porous.is_some()),
+        ("mixing", raw.mixing.is_some()),
+        ("dissolution", raw.dissolution.is_some()),
+    ] {
+        c.not_applicable(key, present, why);
+    }
+    if sim.transfer == TransferKind::Flip {
+        c.err(
+            "simulation.transfer",
+            "solver \"tlmpm\" supports transfer = \"apic\" or \"pic\"",
+        );
+    }
+    for (i, b) in raw.bodies.iter().enumerate() {
+        c.not_applicable(&format!("bodies[{i}].phase"), b.phase.is_some(), why);
+    }
+    for (i, b) in boundaries.iter().enumerate() {
+        if b.contact == ContactName::Sticky {
+            c.err(
+                &format!("boundaries[{i}].contact"),
+                "solver \"tlmpm\" keeps bodies off walls and colliders by frictionless penalty \
+                 contact: use contact = \"slip\" or \"separate\", or clamp with [[fixed]]",
+            );
+        }
+        if b.friction != 0.0 {
+            c.err(
+                &format!("boundaries[{i}].friction"),
+                "solver \"tlmpm\" has frictionless penalty contact only",
+            );
+        }
+        if b.velocity
+            .as_ref()
+            .is_some_and(|v| v.iter().any(|&x| x != 0.0))
+        {
+            c.err(
+                &format!("boundaries[{i}].velocity"),
+                "solver \"tlmpm\" has static colliders only",
+            );
+        }
+    }
+}

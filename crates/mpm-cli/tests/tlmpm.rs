@@ -1,0 +1,210 @@
+//! `solver = "tlmpm"` through the CLI: a cantilever under a step tip load against
+//! Euler–Bernoulli, the stage plan `check` prints, and a failing Newton solve stopping the
+//! run with exit code 3 and nothing non-finite written.
+
+mod common;
+
+use common::*;
+use mpm_cli::run::numbered_files;
+use mpm_io::{read_file, Data};
+use std::path::Path;
+
+/// A 1 m × 0.1 m linear elastic cantilever (ν = 0, E = 1e7 Pa, ρ = 1000 kg/m²) clamped at
+/// X ≤ 0 with a step tip load P = 40 N/m, implicit TLMPM with dt = 2.5 ms (ten times the
+/// explicit limit Δx/c).
+const CANTILEVER: &str = r#"
+[simulation]
+dim = 2
+solver = "tlmpm"
+end_time = 1.3
+dt = 2.5e-3
+gravity = [0.0, 0.0]
+
+[grid]
+min = [-0.1, -0.3]
+max = [1.2, 0.4]
+dx = 0.025
+
+[tlmpm]
+contact = false
+
+[[materials]]
+name = "beam"
+model = "linear_elastic"
+E = 1e7
+nu = 0.0
+density = 1000.0
+
+[[bodies]]
+name = "beam"
+material = "beam"
+shape = "box"
+min = [0.0, 0.0]
+max = [1.0, 0.1]
+per_axis = 2
+
+[[fixed]]
+min = [-1.0, -1.0]
+max = [0.0, 1.0]
+
+[[loads]]
+name = "tip"
+min = [0.98, -1.0]
+max = [1.0, 1.0]
+force = [0.0, -40.0]
+
+[output]
+interval_steps = 3
+fields = ["x"]
+"#;
+
+/// `[N, 2]` positions of a snapshot.
+fn positions(path: &Path) -> (f64, Vec<[f64; 2]>) {
+    let s = read_file(path).expect("snapshot");
+    let x = s.field("x").expect("x");
+    let Data::F64 { values, .. } = &x.data else {
+        panic!("x is f64")
+    };
+    (
+        s.header.time,
+        values.chunks_exact(2).map(|c| [c[0], c[1]]).collect(),
+    )
+}
+
+#[test]
+fn cantilever_step_load_matches_euler_bernoulli() {
+    let d = tmpdir("tlmpm-cantilever");
+    let scene = write(&d, "cantilever.toml", CANTILEVER);
+    let out = d.join("out");
+    let o = cli(&[
+        "run",
+        &scene.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let snaps = numbered_files(&out, "snap_");
+    let (_, x0) = positions(&snaps[0].1);
+    let tip: Vec<usize> = (0..x0.len()).filter(|&p| x0[p][0] > 0.98).collect();
+    let history: Vec<(f64, f64)> = snaps
+        .iter()
+        .map(|(_, f)| {
+            let (t, x) = positions(f);
+            let w = tip.iter().map(|&p| x[p][1] - x0[p][1]).sum::<f64>() / tip.len() as f64;
+            (t, -w)
+        })
+        .collect();
+    // Euler–Bernoulli: static deflection P L³/(3EI), first period 2π/ω₁.
+    let (p, l, e, h, rho): (f64, f64, f64, f64, f64) = (40.0, 1.0, 1e7, 0.1, 1000.0);
+    let i = h * h * h / 12.0;
+    let delta = p * l * l * l / (3.0 * e * i);
+    let omega = 1.8751f64.powi(2) * (e * i / (rho * h * l.powi(4))).sqrt();
+    let period = 2.0 * std::f64::consts::PI / omega;
+    // The first maximum (half a period) and the next minimum (a full period).
+    let (t_max, w_max) =
+        history
+            .iter()
+            .filter(|(t, _)| *t < 0.75 * period)
+            .fold(
+                (0.0, f64::MIN),
+                |a, &(t, w)| if w > a.1 { (t, w) } else { a },
+            );
+    let (t_min, w_min) = history
+        .iter()
+        .filter(|(t, _)| *t > t_max && *t < 1.5 * period)
+        .fold(
+            (0.0, f64::MAX),
+            |a, &(t, w)| if w < a.1 { (t, w) } else { a },
+        );
+    let static_est = 0.5 * (w_max + w_min);
+    println!(
+        "cantilever: static deflection {static_est:.5} m (Euler–Bernoulli {delta:.5} m), first \
+         maximum {w_max:.5} m at {t_max:.3} s, minimum {w_min:.5} m at {t_min:.3} s, period \
+         {:.4} s (Euler–Bernoulli {period:.4} s)",
+        t_min
+    );
+    assert!(
+        (static_est / delta - 1.0).abs() < 0.05,
+        "static deflection {static_est} vs {delta}"
+    );
+    assert!(
+        (t_min / period - 1.0).abs() < 0.05,
+        "period {t_min} vs {period}"
+    );
+    // A step load on an undamped beam overshoots to about twice the static deflection;
+    // backward Euler damps it a little.
+    assert!(
+        w_max > 1.8 * delta && w_max < 2.05 * delta,
+        "overshoot {w_max}"
+    );
+}
+
+#[test]
+fn check_prints_only_the_tlmpm_stages_a_scene_runs() {
+    let d = tmpdir("tlmpm-check");
+    let plan = |name: &str, text: &str| {
+        let p = write(&d, name, text);
+        let o = cli(&["check", &p.to_string_lossy()]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let s = stdout(&o);
+        s[s.find("# stage plan").expect("plan")..].to_string()
+    };
+    let cantilever = plan("c.toml", CANTILEVER);
+    assert!(cantilever.contains("implicit TLMPM"));
+    assert!(cantilever.contains("solve: Newton"));
+    assert!(cantilever.contains("loads \"tip\""));
+    assert!(!cantilever.contains("contact"), "{cantilever}");
+    assert!(!cantilever.contains("reference update"), "{cantilever}");
+    let snow = plan("s.toml", TLMPM_SNOW_2D);
+    assert!(snow.contains("contact (Eq. 4"), "{snow}");
+    assert!(snow.contains("plastic return mapping"), "{snow}");
+    assert!(snow.contains("reference update (A-ULMPM"), "{snow}");
+    let explicit = plan(
+        "e.toml",
+        &CANTILEVER.replace(
+            "contact = false",
+            "contact = false\nintegrator = \"explicit\"",
+        ),
+    );
+    assert!(explicit.contains("explicit TLMPM"));
+    assert!(explicit.contains("symplectic Euler node update"));
+    assert!(!explicit.contains("Newton"), "{explicit}");
+}
+
+#[test]
+fn a_failing_newton_solve_exits_3_and_keeps_earlier_outputs() {
+    // One Newton iteration cannot converge a large-deformation step of the snow column
+    // (a fixed-corotated material, nonlinear) to 1e-14.
+    let d = tmpdir("tlmpm-newton");
+    let text = TLMPM_SNOW_2D
+        .replace(
+            "contact = true",
+            "contact = true\nmax_iterations = 1\nrel_tol = 1e-14\nabs_tol = 1e-30",
+        )
+        .replace("dt = 2e-3", "dt = 2e-2");
+    let scene = write(&d, "s.toml", &text);
+    let out = d.join("out");
+    let o = cli(&[
+        "run",
+        &scene.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+        "--quiet",
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(err.contains("Newton did not converge"), "{err}");
+    let snaps = numbered_files(&out, "snap_");
+    assert!(!snaps.is_empty(), "the initial snapshot is kept");
+    for (_, f) in &snaps {
+        let s = read_file(f).expect("readable snapshot");
+        for field in &s.fields {
+            if let Data::F64 { values, .. } = &field.data {
+                assert!(values.iter().all(|v| v.is_finite()), "{}", field.name);
+            }
+        }
+    }
+    let summary = std::fs::read_to_string(out.join("summary.json")).expect("summary");
+    assert!(summary.contains("\"status\": \"instability\""), "{summary}");
+}
