@@ -116,6 +116,9 @@ fn error_label(case: &str) -> &'static str {
         cases::tlmpm::two_disks_contact::NAME => "1 - min gap / (r_p + r_q)",
         cases::tlmpm::hanging_block_extreme::NAME => "connected components",
         cases::tlmpm::mms_1d_tlmpm::NAME => "L2 displacement error (m)",
+        cases::tlmpm::cantilever_tip_load::NAME => {
+            "|static deflection / Euler-Bernoulli - 1|; period error"
+        }
         _ => "error",
     }
 }
@@ -143,7 +146,7 @@ pub fn plot_case(
         points: error_vs(&|r| r.wall_s),
         dashed: false,
     }];
-    if case.name == cases::bar::NAME {
+    if case.name == cases::bar::NAME || case.name == cases::tlmpm::cantilever_tip_load::NAME {
         let pe = |f: &dyn Fn(&report::Run) -> f64| -> Vec<(f64, f64)> {
             case.runs
                 .iter()

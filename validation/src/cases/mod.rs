@@ -16,7 +16,7 @@ use std::fmt;
 pub const SOLVER: &str = "mpm-explicit (explicit MLS-MPM, quadratic B-spline, APIC)";
 
 /// Names of all cases, in the order they run.
-pub const CASE_NAMES: [&str; 15] = [
+pub const CASE_NAMES: [&str; 16] = [
     mms::NAME_2D,
     mms::NAME_3D,
     bar::NAME,
@@ -32,6 +32,7 @@ pub const CASE_NAMES: [&str; 15] = [
     tlmpm::two_disks_contact::NAME,
     tlmpm::hanging_block_extreme::NAME,
     tlmpm::mms_1d_tlmpm::NAME,
+    tlmpm::cantilever_tip_load::NAME,
 ];
 
 /// Why a run did not produce a result.

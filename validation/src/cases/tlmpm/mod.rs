@@ -2,12 +2,14 @@
 //! Newton convergence on large-deformation steps ([`newton_convergence`]), colliding disks with
 //! penalty contact ([`two_disks_contact`]), a block hanging under extreme gravity
 //! ([`hanging_block_extreme`]), the 1D manufactured solution of the TLMPM literature
-//! ([`mms_1d_tlmpm`]).
+//! ([`mms_1d_tlmpm`]), the work–precision cantilever of implicit against explicit
+//! ([`cantilever_tip_load`]).
 //!
 //! Run records follow the crate's conventions; `wall_s` is the time spent inside the solvers'
 //! `step` (set-up and error sampling excluded). Units are SI; in 2D volumes are areas (m²) and
 //! densities kg/m².
 
+pub mod cantilever_tip_load;
 pub mod hanging_block_extreme;
 pub mod mms_1d_tlmpm;
 pub mod newton_convergence;
@@ -28,11 +30,12 @@ pub const SOLVER_IMPLICIT: &str =
     "mpm-tlmpm implicit (backward Euler, Newton, sparse Cholesky; quadratic B-spline, APIC)";
 
 /// Names of the TLMPM cases, in the order they run.
-pub const NAMES: [&str; 4] = [
+pub const NAMES: [&str; 5] = [
     newton_convergence::NAME,
     two_disks_contact::NAME,
     hanging_block_extreme::NAME,
     mms_1d_tlmpm::NAME,
+    cantilever_tip_load::NAME,
 ];
 
 /// Runs the named TLMPM case in `mode`; `None` for a name not in [`NAMES`].
@@ -42,6 +45,7 @@ pub fn run(name: &str, mode: Mode) -> Option<CaseResult> {
         two_disks_contact::NAME => two_disks_contact::case(mode),
         hanging_block_extreme::NAME => hanging_block_extreme::case(mode),
         mms_1d_tlmpm::NAME => mms_1d_tlmpm::case(mode),
+        cantilever_tip_load::NAME => cantilever_tip_load::case(mode),
         _ => return None,
     })
 }
