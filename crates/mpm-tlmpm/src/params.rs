@@ -28,6 +28,13 @@ pub enum Transfer {
 /// `[min, max]` (inclusive, with a tolerance of 10⁻⁹ Δx) has the components flagged in `axes`
 /// prescribed to move at `velocity`. Nodes are fixed in the reference configuration, so a
 /// clamped end stays clamped however far the body deforms.
+///
+/// B-splines of degree above one do not interpolate, so where the displacement is actually
+/// held depends on which nodes are fixed. With the quadratic kernel, fixing every node at
+/// `X ≤ X₀` on a grid with a node at `X₀` leaves `u(X₀) = c₁/8` from the first free node, so
+/// the clamp is soft by O(Δx). On a grid offset by half a cell, fixing the nodes at
+/// `X ≤ X₀ + Δx/2` makes displacement and slope vanish at `X₀` exactly; the validation case
+/// `cantilever_tip_load` clamps that way.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FixedRegion<const D: usize> {
     /// Lower corner of the box in the reference configuration (m).
