@@ -687,6 +687,11 @@ fn tlmpm_keys_fit_their_solver() {
             "linear_solver",
         ),
         (
+            tl.replace("contact = true", "contact = false"),
+            "tlmpm.contact",
+            "contact = false",
+        ),
+        (
             tl.replace("eta = 0.01", "eta = 1.5"),
             "tlmpm.reference_update.eta",
             "eta = 1.5",

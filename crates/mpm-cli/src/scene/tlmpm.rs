@@ -288,6 +288,13 @@ pub(super) fn resolve(
             .unwrap_or(ProjectionKind::OnFailure)
     });
     let contact = t.and_then(|t| t.contact).unwrap_or(true);
+    if !contact && !boundaries.is_empty() {
+        c.err(
+            "tlmpm.contact",
+            "walls and colliders act through the contact stage, which also handles particle \
+             pairs: keep contact = true, or remove the [[boundaries]]",
+        );
+    }
     let contact_radius = c.positive(
         "tlmpm.contact_radius",
         t.and_then(|t| t.contact_radius).unwrap_or(0.5 * dx),
