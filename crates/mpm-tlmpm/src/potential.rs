@@ -218,10 +218,14 @@ where
             .zip(magnitude.par_iter_mut())
             .enumerate()
             .for_each(|(i, (r, mag))| {
-                let inertia = (u[i] - self.target[i]) * (masses[i] * self.inv_dt2);
+                let scale = masses[i] * self.inv_dt2;
+                let inertia = (u[i] - self.target[i]) * scale;
                 let (fint, fmag) = internal_force(self.reference, stress, i);
                 *r = (inertia - fint - self.external[i]).component_mul(&self.constraints.mask[i]);
-                *mag = inertia.norm() + self.external[i].norm() + fmag;
+                // The inertia term is a difference of nearly equal vectors at small dt: its
+                // rounding error scales with the magnitudes of both, not with their difference.
+                *mag =
+                    (u[i].norm() + self.target[i].norm()) * scale + self.external[i].norm() + fmag;
             });
         magnitude.iter().map(|m| m * m).sum::<Real>().sqrt()
     }
