@@ -109,6 +109,81 @@ pub struct TlmpmState<const D: usize> {
     pub reference_updates: u64,
 }
 
+/// The accessors both solvers expose over their shared [`Core`]; expanded inside each solver's
+/// `impl` block (the solver must have a `core: Core<D>` field).
+macro_rules! shared_accessors {
+    () => {
+        /// Number of A-ULMPM reference updates so far (0 without
+        /// [`TlmpmParams::reference_update`]); the implicit solver also rebuilt the sparsity
+        /// pattern and the symbolic factorisation at each.
+        pub fn reference_updates(&self) -> u64 {
+            self.core.reference_updates()
+        }
+
+        /// The solver parameters.
+        pub fn params(&self) -> &TlmpmParams<D> {
+            &self.core.params
+        }
+
+        /// The material table.
+        pub fn materials(&self) -> &[Material] {
+            &self.core.materials
+        }
+
+        /// Particle state. The affine column holds `C_p = ∇^X V` (1/s), the velocity gradient
+        /// with respect to reference coordinates.
+        pub fn particles(&self) -> &Particles<D> {
+            &self.core.particles
+        }
+
+        /// Particle velocities (m/s), e.g. to set an initial velocity field. The next step
+        /// starts with a P2G transfer of them, also with [`crate::Transfer::Persistent`].
+        pub fn velocities_mut(&mut self) -> &mut [Vector<D>] {
+            self.core.node_velocity.clear();
+            &mut self.core.particles.v
+        }
+
+        /// The applied particle forces (N); empty when none were set.
+        pub fn particle_forces(&self) -> &[Vector<D>] {
+            &self.core.particle_forces
+        }
+
+        /// Applied forces on the particles (N), zero until set. They enter every later step as
+        /// external nodal forces `Σ_p W_i(X_p) f_p` held over the step (a tip load, a
+        /// manufactured body force `m_p b(X_p, t)`), without touching the particle velocities,
+        /// so they also work with [`crate::Transfer::Persistent`].
+        pub fn particle_forces_mut(&mut self) -> &mut [Vector<D>] {
+            self.core.particle_forces_mut()
+        }
+
+        /// The solver state beyond the particle columns, for a checkpoint.
+        pub fn state(&self) -> TlmpmState<D> {
+            self.core.state()
+        }
+
+        /// The cached reference configuration.
+        pub fn reference(&self) -> &ReferenceConfig<D> {
+            &self.core.reference
+        }
+
+        /// Simulation time (s).
+        pub fn time(&self) -> Real {
+            self.core.time
+        }
+
+        /// Number of accepted steps.
+        pub fn steps(&self) -> u64 {
+            self.core.steps
+        }
+
+        /// Mass, momenta and energies of the particles.
+        pub fn diagnostics(&self) -> Diagnostics<D> {
+            self.core.diagnostics()
+        }
+    };
+}
+pub(crate) use shared_accessors;
+
 /// Runs `f`, adding its wall-clock time to `acc`.
 pub(crate) fn timed<T>(acc: &mut Duration, f: impl FnOnce() -> T) -> T {
     let t = std::time::Instant::now();

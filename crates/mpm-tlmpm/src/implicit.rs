@@ -172,12 +172,6 @@ where
         })
     }
 
-    /// Number of A-ULMPM reference updates so far (0 without [`TlmpmParams::reference_update`]);
-    /// each one also rebuilt the sparsity pattern and the symbolic factorisation.
-    pub fn reference_updates(&self) -> u64 {
-        self.core.reference_updates()
-    }
-
     /// Linearises the Newton system of a step of `dt` (s) at the initial guess, without advancing
     /// the simulation: runs the P2G, external-force and contact stages, sets the node
     /// displacements to the explicit predictor, and computes the residual `∇E` and the
@@ -263,46 +257,7 @@ where
         Ok(sys.rhs.iter().map(|x| x * x).sum::<Real>().sqrt())
     }
 
-    /// The solver parameters shared with the explicit variant.
-    pub fn params(&self) -> &TlmpmParams<D> {
-        &self.core.params
-    }
-
-    /// The material table.
-    pub fn materials(&self) -> &[Material] {
-        &self.core.materials
-    }
-
-    /// Particle state. The affine column holds `C_p = ∇^X V` (1/s), the velocity gradient with
-    /// respect to reference coordinates.
-    pub fn particles(&self) -> &Particles<D> {
-        &self.core.particles
-    }
-
-    /// Particle velocities (m/s), e.g. to set an initial velocity field. The next step starts
-    /// with a P2G transfer of them, also with [`crate::Transfer::Persistent`].
-    pub fn velocities_mut(&mut self) -> &mut [Vector<D>] {
-        self.core.node_velocity.clear();
-        &mut self.core.particles.v
-    }
-
-    /// The applied particle forces (N); empty when none were set.
-    pub fn particle_forces(&self) -> &[Vector<D>] {
-        &self.core.particle_forces
-    }
-
-    /// Applied forces on the particles (N), zero until set. They enter every later step as
-    /// external nodal forces `Σ_p W_i(X_p) f_p` held over the step (a tip load, a manufactured
-    /// body force `m_p b(X_p, t)`), without touching the particle velocities, so they also
-    /// work with [`crate::Transfer::Persistent`].
-    pub fn particle_forces_mut(&mut self) -> &mut [Vector<D>] {
-        self.core.particle_forces_mut()
-    }
-
-    /// The solver state beyond the particle columns, for a checkpoint.
-    pub fn state(&self) -> TlmpmState<D> {
-        self.core.state()
-    }
+    crate::core::shared_accessors!();
 
     /// Continues from a checkpoint: the solver must have been built from the checkpoint's
     /// particles with the original parameters; `state` (from [`Self::state`]) restores the
@@ -319,21 +274,6 @@ where
         self.core.stage_plan(true)
     }
 
-    /// The cached reference configuration.
-    pub fn reference(&self) -> &ReferenceConfig<D> {
-        &self.core.reference
-    }
-
-    /// Simulation time (s).
-    pub fn time(&self) -> Real {
-        self.core.time
-    }
-
-    /// Number of accepted steps.
-    pub fn steps(&self) -> u64 {
-        self.core.steps
-    }
-
     /// Number of unknowns of the Newton system (free scalar components, partly fixed nodes
     /// counting all `D`).
     pub fn num_equations(&self) -> usize {
@@ -343,11 +283,6 @@ where
     /// The step bound (s) of the adaptive policy before `dt_max`, `cfl · Δx / max_p |v_p|`.
     pub fn stable_dt(&self) -> Real {
         self.core.stable_dt(false)
-    }
-
-    /// Mass, momenta and energies of the particles.
-    pub fn diagnostics(&self) -> Diagnostics<D> {
-        self.core.diagnostics()
     }
 }
 
