@@ -2,8 +2,8 @@
 //!
 //! Groups, each for 2D and 3D at about 64k and 256k particles (scenes in `mpm_benches`):
 //!
-//! - `p2g`: binning (`sort_particles`) plus `particle_to_grid`, repeated on the same state;
-//! - `g2p`: `grid_to_particle` plus `commit`; each iteration first runs an untimed sort, P2G and
+//! - `p2g`: binning plus the transfer (`transfer_to_grid`), repeated on the same state;
+//! - `g2p`: G2P plus the commit (`PreparedG2p::run`); each iteration first runs an untimed sort, P2G and
 //!   grid update so the gather always reads a grid that matches the particles;
 //! - `step`: a full `ExplicitSolver::step`, the scene evolving from iteration to iteration.
 //!
@@ -13,7 +13,7 @@
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, SamplingMode, Throughput};
 use mpm_benches::{memory, scene_2d, scene_3d, Size};
-use mpm_core::{Dim, DimOps, TimeStepPolicy};
+use mpm_core::{Dim, DimOps, Solver, TimeStepPolicy};
 use mpm_explicit::ExplicitSolver;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -28,8 +28,11 @@ fn configure(group: &mut BenchmarkGroup<'_, WallTime>) {
 }
 
 /// The fixed time step of a benchmark scene (s).
-fn fixed_dt<const D: usize>(solver: &ExplicitSolver<D>) -> f64 {
-    match solver.params.time_step {
+fn fixed_dt<const D: usize>(solver: &ExplicitSolver<D>) -> f64
+where
+    Dim<D>: DimOps<D>,
+{
+    match solver.params().time_step {
         TimeStepPolicy::Fixed { dt } => dt,
         TimeStepPolicy::Adaptive { .. } => unreachable!("benchmark scenes use a fixed dt"),
     }
@@ -50,11 +53,10 @@ fn bench_p2g_on<const D: usize>(
     Dim<D>: DimOps<D>,
 {
     let dt = fixed_dt(&solver);
-    group.throughput(Throughput::Elements(solver.particles.len() as u64));
+    group.throughput(Throughput::Elements(solver.particles().len() as u64));
     group.bench_function(name, |b| {
         b.iter(|| {
-            solver.sort_particles();
-            solver.particle_to_grid(black_box(dt));
+            solver.transfer_to_grid(black_box(dt));
         })
     });
     black_box(solver.grid().total_mass());
@@ -68,21 +70,19 @@ fn bench_g2p_on<const D: usize>(
     Dim<D>: DimOps<D>,
 {
     let dt = fixed_dt(&solver);
-    group.throughput(Throughput::Elements(solver.particles.len() as u64));
+    group.throughput(Throughput::Elements(solver.particles().len() as u64));
     group.bench_function(name, |b| {
         b.iter_custom(|iters| {
             let mut timed = Duration::ZERO;
             for _ in 0..iters {
-                solver.sort_particles();
-                solver.particle_to_grid(dt);
-                if let Err(e) = solver.update_grid(dt) {
-                    panic!("{name}: grid update failed: {e:?}");
-                }
+                let prepared = match solver.prepare_g2p(dt) {
+                    Ok(p) => p,
+                    Err(e) => panic!("{name}: grid update failed: {e}"),
+                };
                 let t = Instant::now();
-                if let Err(e) = solver.grid_to_particle(black_box(dt)) {
+                if let Err(e) = prepared.run() {
                     panic!("{name}: G2P guard check failed: {e:?}");
                 }
-                solver.commit();
                 timed += t.elapsed();
             }
             timed
@@ -97,7 +97,7 @@ fn bench_step_on<const D: usize>(
 ) where
     Dim<D>: DimOps<D>,
 {
-    let n = solver.particles.len();
+    let n = solver.particles().len();
     group.throughput(Throughput::Elements(n as u64));
     group.bench_function(name, |b| {
         b.iter(|| match solver.step() {
@@ -105,15 +105,14 @@ fn bench_step_on<const D: usize>(
             Err(e) => panic!("{name}: step failed: {e}"),
         })
     });
-    if solver.steps == 0 {
+    if solver.steps() == 0 {
         return; // Filtered out by the command line.
     }
-    let total: f64 = solver.stats.table().iter().map(|(_, s)| s).sum();
-    let stages = solver
-        .stats
-        .table()
+    let rows = Solver::stage_times(&solver);
+    let total: f64 = rows.iter().map(|r| r.seconds).sum();
+    let stages = rows
         .iter()
-        .map(|(stage, s)| format!("{stage} {:.1}%", 100.0 * s / total))
+        .map(|r| format!("{} {:.1}%", r.stage, 100.0 * r.seconds / total))
         .collect::<Vec<_>>()
         .join(", ");
     let mem = memory(&solver);
@@ -121,8 +120,8 @@ fn bench_step_on<const D: usize>(
         "{name}: {n} particles, dt = {:.3e} s, {} steps ({:.4} s simulated); stages: {stages}; \
          memory: {} B/particle particles + {} B/particle scratch + {:.1} B/particle grid = {:.1} B/particle",
         fixed_dt(&solver),
-        solver.steps,
-        solver.time,
+        solver.steps(),
+        solver.time(),
         mem.particle_bytes,
         mem.scratch_bytes,
         mem.grid_bytes as f64 / n as f64,

@@ -165,12 +165,22 @@ where
         }),
         colliders: vec![],
     };
-    let mut solver = ExplicitSolver::new(spec, params, materials, boundaries, particles)
-        .expect("benchmark scene is valid");
-    let dt = DT_FRACTION * solver.stable_dt();
+    let probe = ExplicitSolver::new(
+        spec,
+        params.clone(),
+        materials.clone(),
+        boundaries.clone(),
+        particles.clone(),
+    )
+    .expect("benchmark scene is valid");
+    let dt = DT_FRACTION * probe.stable_dt();
     assert!(dt.is_finite() && dt > 0.0, "stable dt {dt}");
-    solver.params.time_step = TimeStepPolicy::Fixed { dt };
-    solver
+    let params = ExplicitParams {
+        time_step: TimeStepPolicy::Fixed { dt },
+        ..params
+    };
+    ExplicitSolver::new(spec, params, materials, boundaries, particles)
+        .expect("benchmark scene is valid")
 }
 
 /// The 2D scene: in the unit box with `n` = [`Size::cells`]`(2)` cells per axis, a water block of
@@ -199,7 +209,7 @@ pub fn scene_2d(size: Size) -> ExplicitSolver<2> {
             1000.0,
         );
     });
-    assert_eq!(solver.particles.len(), size.particles(2));
+    assert_eq!(solver.particles().len(), size.particles(2));
     solver
 }
 
@@ -219,7 +229,7 @@ pub fn scene_3d(size: Size) -> ExplicitSolver<3> {
             1000.0,
         );
     });
-    assert_eq!(solver.particles.len(), size.particles(3));
+    assert_eq!(solver.particles().len(), size.particles(3));
     solver
 }
 
@@ -251,11 +261,11 @@ pub fn memory<const D: usize>(solver: &ExplicitSolver<D>) -> Memory
 where
     Dim<D>: DimOps<D>,
 {
-    let n = solver.particles.len();
+    let n = solver.particles().len();
     let scratch = solver.scratch_bytes();
     Memory {
         particles: n,
-        particle_bytes: solver.particles.bytes_per_particle(),
+        particle_bytes: solver.particles().bytes_per_particle(),
         scratch_bytes: scratch.particles / n.max(1),
         grid_bytes: scratch.grid,
     }

@@ -52,7 +52,7 @@ pub fn usage() -> String {
          Exit status: 0 when the report was written (verdicts are in the report), 1 when it could\n\
          not be written or, with --strict, when a case fails or a stability run blew up,\n\
          2 for bad arguments.",
-        cases::CASE_NAMES.join(", ")
+        cases::names().join(", ")
     )
 }
 
@@ -76,10 +76,10 @@ pub fn parse_args(args: impl IntoIterator<Item = String>) -> Result<Command, Str
             "--strict" => strict = true,
             "--case" => {
                 let name = it.next().ok_or("--case needs a case name")?;
-                if !cases::CASE_NAMES.contains(&name.as_str()) {
+                if cases::find(&name).is_none() {
                     return Err(format!(
                         "unknown case `{name}`; known cases: {}",
-                        cases::CASE_NAMES.join(", ")
+                        cases::names().join(", ")
                     ));
                 }
                 if !selected.contains(&name) {
@@ -209,14 +209,14 @@ pub fn plot_case(
 /// written).
 pub fn run_validation(opts: &Options) -> Report {
     let names: Vec<&str> = if opts.cases.is_empty() {
-        cases::CASE_NAMES.to_vec()
+        cases::names()
     } else {
         opts.cases.iter().map(String::as_str).collect()
     };
     let mut results = Vec::new();
     for name in &names {
-        if let Some(c) = cases::run_case(name, opts.mode) {
-            results.push(c);
+        if let Some(c) = cases::find(name) {
+            results.push(c.run(opts.mode));
         }
     }
     let mut stability = Vec::new();

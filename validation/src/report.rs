@@ -1,8 +1,9 @@
 //! The shared harness: run records, convergence-rate fits, the `report.json` schema, the
 //! Markdown report, machine description and the timed stepping helper.
 
+use mpm_core::StepInfo;
 use mpm_core::{Dim, DimOps, Instability, Real};
-use mpm_explicit::{ExplicitSolver, StepInfo};
+use mpm_explicit::ExplicitSolver;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -199,13 +200,7 @@ pub fn decreases_under_refinement(runs: &[Run]) -> bool {
 }
 
 /// `max` that keeps a NaN once seen, so a non-finite error is never hidden by later values.
-pub fn nan_max(a: Real, b: Real) -> Real {
-    if a.is_nan() || b.is_nan() {
-        Real::NAN
-    } else {
-        a.max(b)
-    }
-}
+pub use mpm_core::solver::nan_max;
 
 /// Runs `solver.step()` and adds the time spent in it to `wall`.
 pub fn timed_step<const D: usize>(

@@ -34,7 +34,7 @@ where
 {
     let e0 = solver.diagnostics().total_energy();
     let mut e_max = e0;
-    while solver.time < t_end && solver.steps < MAX_STEPS {
+    while solver.time() < t_end && solver.steps() < MAX_STEPS {
         if let Err(e) = solver.step() {
             return (
                 Outcome::Stopped,
@@ -47,7 +47,8 @@ where
                 Outcome::BlewUp,
                 format!(
                     "non-finite total energy at step {} (t = {:.4e} s)",
-                    solver.steps, solver.time
+                    solver.steps(),
+                    solver.time()
                 ),
             );
         }
@@ -56,8 +57,8 @@ where
     let e_end = solver.diagnostics().total_energy();
     let detail = format!(
         "{} steps, t = {:.4e} s, max E/E0 = {:.6}, final E/E0 = {:.6}",
-        solver.steps,
-        solver.time,
+        solver.steps(),
+        solver.time(),
         e_max / e0,
         e_end / e0
     );

@@ -1,10 +1,9 @@
-//! From a resolved [`Scene`](crate::scene::Scene) to a ready-to-run solver ([`Driver`]):
+//! From a resolved [`Scene`](crate::scene::Scene) to a ready-to-run solver (a boxed [`mpm_core::Solver`]):
 //! grid, materials, sampled bodies with their initial velocities, boundaries and solver
 //! parameters, for explicit MLS-MPM or TLMPM.
 //! Problems found here (a body outside the grid, a body without particles, a missing mesh) are
 //! reported at their key in the scene file.
 
-use crate::driver::Driver;
 use crate::error::SceneError;
 use crate::mesh::{read_obj, TriMesh};
 use crate::scene::{
@@ -19,7 +18,7 @@ use mpm_core::sampling::{sample, Sampling, Shape};
 use mpm_core::volume::estimate_volumes;
 use mpm_core::{
     Dim, DimOps, GridSpec, Kernel, Matrix, OnInstability, ParticleExtra, ParticleInit, Particles,
-    SetupError, TimeStepPolicy, Vector,
+    SetupError, Solver, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{
     Activation, BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, DiffusionScheme,
@@ -51,11 +50,13 @@ pub struct BodyInfo {
 #[derive(Debug)]
 pub struct Built<const D: usize> {
     /// The solver, at time 0.
-    pub solver: Driver<D>,
+    pub solver: Box<dyn Solver<D>>,
     /// The bodies and their particle ranges.
     pub bodies: Vec<BodyInfo>,
     /// Warnings to print at start (e.g. a fixed dt above the stable bound).
     pub warnings: Vec<String>,
+    /// Scene-level facts the solver does not know, for `check` (e.g. load names).
+    pub notes: Vec<String>,
 }
 
 /// A built solver in 2D or 3D.
@@ -556,8 +557,9 @@ where
         }
     }
     warnings.extend(uncoupled_phases(sc));
-    let solver = match &sc.tlmpm {
-        None => Driver::Explicit(Box::new(
+    let mut notes = Vec::new();
+    let solver: Box<dyn Solver<D>> = match &sc.tlmpm {
+        None => Box::new(
             ExplicitSolver::new(
                 spec,
                 params::<D>(scene),
@@ -566,38 +568,39 @@ where
                 particles,
             )
             .map_err(|e| setup_error(scene, &bodies, e))?,
-        )),
+        ),
         Some(t) => {
             let forces = load_forces(scene, &particles)?;
             let params = tlmpm_params::<D>(scene, &spec);
-            let implicit = (t.integrator == IntegratorKind::Implicit).then(|| implicit_params(t));
-            let mut d = match implicit {
-                Some(ip) => Driver::ImplicitTlmpm(Box::new(
-                    ImplicitTlmpm::new(spec, params, ip, materials, particles)
-                        .map_err(|e| setup_error(scene, &bodies, e))?,
-                )),
-                None => Driver::ExplicitTlmpm(Box::new(
-                    ExplicitTlmpm::new(spec, params, materials, particles)
-                        .map_err(|e| setup_error(scene, &bodies, e))?,
-                )),
-            };
-            if let Some(f) = forces {
-                match &mut d {
-                    Driver::ImplicitTlmpm(s) => s.particle_forces_mut().copy_from_slice(&f),
-                    Driver::ExplicitTlmpm(s) => s.particle_forces_mut().copy_from_slice(&f),
-                    Driver::Explicit(_) => {}
-                }
+            let fail = |e| setup_error(scene, &bodies, e);
+            for l in &sc.loads {
+                notes.push(format!("load \"{}\": {:?} N", l.name, l.force));
             }
-            d
+            if t.integrator == IntegratorKind::Implicit {
+                let mut s =
+                    ImplicitTlmpm::new(spec, params, implicit_params(t), materials, particles)
+                        .map_err(fail)?;
+                if let Some(f) = forces {
+                    s.particle_forces_mut().copy_from_slice(&f);
+                }
+                Box::new(s)
+            } else {
+                let mut s = ExplicitTlmpm::new(spec, params, materials, particles).map_err(fail)?;
+                if let Some(f) = forces {
+                    s.particle_forces_mut().copy_from_slice(&f);
+                }
+                Box::new(s)
+            }
         }
     };
-    let implicit = matches!(solver, Driver::ImplicitTlmpm(_));
-    if let (TimeStepDef::Fixed { dt }, false) = (sc.simulation.time_step, implicit) {
+    let bound = solver.dt_bound();
+    if let (TimeStepDef::Fixed { dt }, true) = (sc.simulation.time_step, bound.limits_fixed_dt) {
         let stable = solver.stable_dt();
         if dt > stable {
             warnings.push(format!(
                 "the fixed dt = {dt:e} s exceeds the stable bound {stable:.3e} s at start \
-                 (min(dx / max(|v| + c), viscous limit)); the run may become unstable"
+                 ({}); the run may become unstable",
+                bound.description
             ));
         }
     }
@@ -613,6 +616,7 @@ where
         solver,
         bodies,
         warnings,
+        notes,
     })
 }
 

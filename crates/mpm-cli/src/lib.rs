@@ -4,7 +4,6 @@
 
 pub mod build;
 pub mod check;
-pub mod driver;
 pub mod error;
 pub mod font;
 pub mod info;

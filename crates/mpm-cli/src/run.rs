@@ -2,13 +2,14 @@
 //! resume, the timing table and `summary.json`.
 
 use crate::build::{build, AnyBuilt, Built};
-use crate::driver::Driver;
 use crate::error::CliError;
 use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene};
-use crate::state::{checkpoint_fields, first_non_finite, restore, snapshot_fields, UNITS};
-use mpm_core::{Diagnostics, Dim, DimOps};
+use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, to_field, UNITS};
+use mpm_core::solver::StageTime;
+use mpm_core::{Diagnostics, Dim, DimOps, Solver, StepError, StepInfo};
 use mpm_io::{read_file, write_file, write_xdmf, FileKind, Header, SeriesEntry};
 use serde_json::json;
+use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -149,7 +150,7 @@ impl Schedule {
 
 /// Everything of a run that is not the solver.
 struct Runner<'a, const D: usize> {
-    solver: Driver<D>,
+    solver: Box<dyn Solver<D>>,
     scene: &'a LoadedScene,
     out: PathBuf,
     quiet: bool,
@@ -170,9 +171,8 @@ struct Runner<'a, const D: usize> {
     dt_sum: f64,
     steps_this_run: u64,
     retries: u64,
-    /// Newton iterations summed over this run's steps, and the most in one step.
-    newton_total: u64,
-    newton_max: u32,
+    /// Iterations and residuals of the solver's iterative solves over this run's steps.
+    solves: BTreeMap<&'static str, SolveStats>,
     first_step: u64,
     first_time: f64,
     io_seconds: f64,
@@ -238,8 +238,7 @@ where
             dt_sum: 0.0,
             steps_this_run: 0,
             retries: 0,
-            newton_total: 0,
-            newton_max: 0,
+            solves: BTreeMap::new(),
             io_seconds: 0.0,
             checkpoints_written: Vec::new(),
         };
@@ -294,12 +293,11 @@ where
                 ck.header.dim
             )));
         }
-        let count = self.solver.materials().len();
-        let mut particles = self.solver.particles().clone();
-        restore(&mut particles, &ck, count).map_err(bad)?;
-        // Rebuild the solver around the restored particles, re-checking them against this
-        // scene's grid and materials.
-        self.solver.resume(particles, &ck).map_err(bad)?;
+        // The solver rebuilds itself around the restored state, re-checking the particles
+        // against this scene's grid and materials.
+        self.solver
+            .restore(&checkpoint_state(&ck))
+            .map_err(|e| bad(e.to_string()))?;
         self.first_step = ck.header.step;
         self.first_time = ck.header.time;
         self.last_dt = ck.header.dt;
@@ -393,12 +391,8 @@ where
     /// Writes the next snapshot and rewrites `run.xmf`.
     fn write_snapshot(&mut self) -> Result<(), CliError> {
         let t = Instant::now();
-        let fields = snapshot_fields(
-            self.solver.particles(),
-            self.solver.materials(),
-            &self.scene.scene.output.fields,
-        );
-        if let Some((name, p, v)) = first_non_finite(&fields) {
+        let columns = snapshot_columns(self.solver.as_ref(), &self.scene.scene.output.fields);
+        if let Some((name, p, v)) = first_non_finite(&columns) {
             return Err(CliError::Instability(format!(
                 "error: non-finite {name} = {v} at particle {p} at step {} (t = {:.6e} s); \
                  snapshot not written",
@@ -406,6 +400,7 @@ where
                 self.solver.time()
             )));
         }
+        let fields: Vec<_> = columns.into_iter().map(to_field).collect();
         let name = snapshot_name(self.frame);
         let header = self.header(
             FileKind::Snapshot,
@@ -428,10 +423,8 @@ where
     /// Writes a checkpoint of the full state and deletes the oldest beyond `keep`.
     fn write_checkpoint(&mut self, keep: u32) -> Result<(), CliError> {
         let t = Instant::now();
-        let (extra_fields, extra_attrs) = self.solver.checkpoint_extra();
-        let mut fields = checkpoint_fields(self.solver.particles());
-        fields.extend(extra_fields);
-        if let Some((name, p, v)) = first_non_finite(&fields) {
+        let state = self.solver.checkpoint();
+        if let Some((name, p, v)) = first_non_finite(&state.columns) {
             return Err(CliError::Instability(format!(
                 "error: non-finite {name} = {v} at particle {p} at step {}; checkpoint not written",
                 self.solver.steps()
@@ -444,7 +437,8 @@ where
         if let Some((s, _)) = &self.checkpoint_schedule {
             attrs.push((ATTR_NEXT_CHECKPOINT.to_string(), s.next));
         }
-        attrs.extend(extra_attrs);
+        attrs.extend(state.attrs);
+        let fields: Vec<_> = state.columns.into_iter().map(to_field).collect();
         let i = &self.initial;
         let mut init = vec![i.mass];
         init.extend((0..3).map(|a| if a < D { i.momentum[a] } else { 0.0 }));
@@ -521,20 +515,9 @@ where
         let mut failure: Option<CliError> = None;
         while !self.finished() {
             match self.solver.step() {
-                Ok(info) => {
-                    self.last_dt = info.dt;
-                    self.dt_min = self.dt_min.min(info.dt);
-                    self.dt_max = self.dt_max.max(info.dt);
-                    self.dt_sum += info.dt;
-                    self.steps_this_run += 1;
-                    self.retries += info.retries as u64;
-                    if let Some(n) = info.newton_iterations {
-                        self.newton_total += n as u64;
-                        self.newton_max = self.newton_max.max(n);
-                    }
-                }
+                Ok(info) => self.record(&info),
                 Err(e) => {
-                    failure = Some(e);
+                    failure = Some(unstable(&e));
                     break;
                 }
             }
@@ -605,13 +588,25 @@ where
         Ok(())
     }
 
+    /// Accounts for one accepted step.
+    fn record(&mut self, info: &StepInfo) {
+        self.last_dt = info.dt;
+        self.dt_min = self.dt_min.min(info.dt);
+        self.dt_max = self.dt_max.max(info.dt);
+        self.dt_sum += info.dt;
+        self.steps_this_run += 1;
+        self.retries += info.retries as u64;
+        for s in &info.solves {
+            self.solves
+                .entry(s.name)
+                .or_default()
+                .add(s.iterations, s.residual);
+        }
+    }
+
     fn print_report(&self, wall_s: f64) {
-        let table = self.solver.stage_table();
-        let stage_total: f64 = table
-            .iter()
-            .filter(|(n, _)| !Driver::<D>::is_breakdown(n))
-            .map(|(_, s)| s)
-            .sum();
+        let table = self.solver.stage_times();
+        let stage_total: f64 = table.iter().map(|r| r.seconds).sum();
         let mut out = String::new();
         out.push_str(&format!(
             "done: {} steps ({} this run) to t = {:.6} s, {} particles, {} snapshots, wall {:.2} s\n",
@@ -622,23 +617,24 @@ where
             self.frame,
             wall_s
         ));
+        let share = |s: f64| 100.0 * s / wall_s.max(1e-12);
         out.push_str("stage                    seconds   share\n");
-        for (name, s) in table.iter() {
-            let name = if Driver::<D>::is_breakdown(name) {
-                format!("  {name}")
-            } else {
-                name.to_string()
-            };
+        for row in &table {
             out.push_str(&format!(
-                "{name:<23} {s:>9.3}  {:>5.1}%\n",
-                100.0 * s / wall_s.max(1e-12)
+                "{:<23} {:>9.3}  {:>5.1}%\n",
+                row.stage.name(),
+                row.seconds,
+                share(row.seconds)
             ));
+            for (part, s) in &row.parts {
+                out.push_str(&format!("  {part:<21} {s:>9.3}  {:>5.1}%\n", share(*s)));
+            }
         }
         out.push_str(&format!(
             "{:<23} {:>9.3}  {:>5.1}%\n",
             "output (I/O)",
             self.io_seconds,
-            100.0 * self.io_seconds / wall_s.max(1e-12)
+            share(self.io_seconds)
         ));
         out.push_str(&format!("{:<23} {:>9.3}\n", "solver total", stage_total));
         out.push_str(&format!("{:<23} {:>9.3}\n", "wall total", wall_s));
@@ -649,11 +645,12 @@ where
                 self.dt_sum / self.steps_this_run as f64,
                 self.dt_max
             ));
-            if self.newton_max > 0 {
+            for (name, s) in &self.solves {
                 out.push_str(&format!(
-                    "Newton iterations per step mean/max: {:.2} / {}\n",
-                    self.newton_total as f64 / self.steps_this_run as f64,
-                    self.newton_max
+                    "{name} iterations per step mean/max: {:.2} / {}; final residual max {:.3e}\n",
+                    s.total as f64 / s.steps as f64,
+                    s.max,
+                    s.residual_max
                 ));
             }
         }
@@ -689,11 +686,11 @@ where
         let l1: Vec<f64> = fin.angular_momentum.iter().copied().collect();
         let mass_abs = (fin.mass - ini.mass).abs();
         let e_abs = (fin.total_energy() - ini.total_energy()).abs();
-        let stages: serde_json::Map<String, serde_json::Value> = self
-            .solver
-            .stage_table()
+        let stages = stage_json(&self.solver.stage_times());
+        let solves: serde_json::Map<String, serde_json::Value> = self
+            .solves
             .iter()
-            .map(|(n, s)| (n.to_string(), json!(s)))
+            .map(|(n, s)| (n.to_string(), s.json()))
             .collect();
         let (status, error) = match failure {
             None => ("ok", None),
@@ -722,11 +719,7 @@ where
             "time": self.solver.time(),
             "dt": dt,
             "retries": self.retries,
-            "newton_iterations": if self.newton_max > 0 {
-                json!({ "total": self.newton_total, "max_per_step": self.newton_max })
-            } else {
-                serde_json::Value::Null
-            },
+            "solves": solves,
             "snapshots": self.frame,
             "checkpoints": self.checkpoints_written,
             "wall_time": {
@@ -765,6 +758,64 @@ where
                 },
             },
             "warnings": self.warnings,
+        })
+    }
+}
+
+/// A failed step as the CLI's instability error (exit 3).
+fn unstable(e: &StepError) -> CliError {
+    CliError::Instability(match e {
+        StepError::Instability(i) => format!("error: numerical {i}"),
+        StepError::Solve { .. } => format!("error: numerical instability: {e}"),
+    })
+}
+
+/// Stage timings as JSON: `{stage: seconds}`, and `{stage}_parts: {part: seconds}` for a stage
+/// with a breakdown.
+fn stage_json(rows: &[StageTime]) -> serde_json::Map<String, serde_json::Value> {
+    let mut m = serde_json::Map::new();
+    for r in rows {
+        m.insert(r.stage.name().to_string(), json!(r.seconds));
+        if !r.parts.is_empty() {
+            let parts: serde_json::Map<String, serde_json::Value> = r
+                .parts
+                .iter()
+                .map(|(p, s)| (p.to_string(), json!(s)))
+                .collect();
+            m.insert(format!("{}_parts", r.stage.name()), parts.into());
+        }
+    }
+    m
+}
+
+/// Iterations and final residuals of one kind of iterative solve over a run.
+#[derive(Clone, Copy, Debug, Default)]
+struct SolveStats {
+    steps: u64,
+    total: u64,
+    max: u32,
+    residual_max: f64,
+    residual_last: f64,
+}
+
+impl SolveStats {
+    fn add(&mut self, iterations: u32, residual: f64) {
+        self.steps += 1;
+        self.total += u64::from(iterations);
+        self.max = self.max.max(iterations);
+        self.residual_max = self.residual_max.max(residual);
+        self.residual_last = residual;
+    }
+
+    fn json(&self) -> serde_json::Value {
+        json!({
+            "steps": self.steps,
+            "iterations": {
+                "total": self.total,
+                "mean": self.total as f64 / self.steps.max(1) as f64,
+                "max_per_step": self.max,
+            },
+            "final_residual": { "max": self.residual_max, "last": self.residual_last },
         })
     }
 }

@@ -4,27 +4,91 @@ use crate::math::Real;
 use std::fmt;
 use thiserror::Error;
 
-/// The stage of a step in which a guard check failed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A stage of a step: the id under which its wall time is recorded, the id of the entry in a
+/// solver's [`crate::solver::StagePlan`], and the stage named when a guard check or a solve
+/// fails in it. Each solver runs a subset; [`Stage::name`] is the text used in timing tables,
+/// `summary.json` and error messages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Stage {
-    /// Particle-to-grid transfer.
-    P2G,
-    /// Grid velocity update and boundary conditions.
-    GridUpdate,
-    /// Grid-to-particle transfer, deformation update and advection.
-    G2P,
+    /// Caching the reference configuration (TLMPM: weights, gradients, connectivity, sparsity
+    /// pattern and symbolic factorisation), at set-up.
+    Reference,
     /// Time-step selection.
     TimeStep,
+    /// Binning particles into grid blocks for the deterministic scatter.
+    Sort,
+    /// Volume re-estimation from the grid density.
+    Volume,
+    /// Concentration diffusion (miscible mixing).
+    Diffusion,
+    /// Particle-to-grid transfer.
+    P2G,
+    /// Grid velocity update (and, on a single grid, boundary conditions).
+    GridUpdate,
+    /// External nodal forces (gravity, applied loads).
+    ExternalForces,
+    /// Particle contact forces.
+    Contact,
+    /// Coupling between phase grids, then boundary conditions on every phase grid.
+    Coupling,
+    /// A grid solve: Newton's method (implicit) or the explicit node update.
+    Solve,
+    /// Grid-to-particle transfer, deformation update and advection.
+    G2P,
+    /// Writing accepted particle updates.
+    Commit,
+    /// A-ULMPM reference configuration update.
+    ReferenceUpdate,
+}
+
+impl Stage {
+    /// Every stage, in the order a step would run them.
+    pub const ALL: [Stage; 14] = [
+        Stage::Reference,
+        Stage::TimeStep,
+        Stage::Sort,
+        Stage::Volume,
+        Stage::Diffusion,
+        Stage::P2G,
+        Stage::GridUpdate,
+        Stage::ExternalForces,
+        Stage::Contact,
+        Stage::Coupling,
+        Stage::Solve,
+        Stage::G2P,
+        Stage::Commit,
+        Stage::ReferenceUpdate,
+    ];
+
+    /// The stage's id in timing tables, `summary.json` and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Reference => "reference",
+            Stage::TimeStep => "time_step",
+            Stage::Sort => "sort",
+            Stage::Volume => "volume",
+            Stage::Diffusion => "diffusion",
+            Stage::P2G => "p2g",
+            Stage::GridUpdate => "grid_update",
+            Stage::ExternalForces => "external_forces",
+            Stage::Contact => "contact",
+            Stage::Coupling => "coupling",
+            Stage::Solve => "solve",
+            Stage::G2P => "g2p",
+            Stage::Commit => "commit",
+            Stage::ReferenceUpdate => "reference_update",
+        }
+    }
+
+    /// Position in [`Stage::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
 }
 
 impl fmt::Display for Stage {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Stage::P2G => "p2g",
-            Stage::GridUpdate => "grid_update",
-            Stage::G2P => "g2p",
-            Stage::TimeStep => "time_step",
-        })
+        f.write_str(self.name())
     }
 }
 

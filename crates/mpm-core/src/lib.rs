@@ -6,6 +6,7 @@
 //! unit area (kg/m²).
 
 pub mod boundary;
+pub mod columns;
 pub mod error;
 pub mod grid;
 pub mod kernel;
@@ -13,6 +14,7 @@ pub mod material;
 pub mod math;
 pub mod particles;
 pub mod sampling;
+pub mod solver;
 
 pub use error::{Instability, Location, SetupError, Stage, Violation};
 pub use grid::{GridNodes, GridSpec};
@@ -27,5 +29,10 @@ pub mod volume;
 #[cfg(test)]
 mod test_util;
 
+pub use columns::{Column, ColumnData};
 pub use diagnostics::Diagnostics;
+pub use solver::{
+    retry_halving, Failure, PlannedStage, SolveInfo, Solver, SolverState, StagePlan, StageTimes,
+    StepError, StepInfo, StepStart,
+};
 pub use timestep::{OnInstability, TimeStepPolicy};

@@ -25,6 +25,19 @@ pub enum TimeStepPolicy {
 }
 
 impl TimeStepPolicy {
+    /// The policy in words, with `bound` naming the stable step bound the CFL factor scales
+    /// (e.g. `dx / max(|v| + c)`).
+    pub fn describe(&self, bound: &str) -> String {
+        match *self {
+            TimeStepPolicy::Fixed { dt } => format!("fixed dt = {dt:e} s"),
+            TimeStepPolicy::Adaptive {
+                cfl,
+                dt_max,
+                dt_min,
+            } => format!("adaptive: dt = min({cfl}·{bound}, {dt_max:e} s), at least {dt_min:e} s"),
+        }
+    }
+
     /// Checks that a fixed dt is positive and finite, and that an adaptive policy has a positive
     /// finite CFL factor and `dt_max > 0` with `dt_max ≥ dt_min`.
     pub fn validate(&self) -> Result<(), SetupError> {

@@ -65,7 +65,7 @@ fn main() {
         }
     };
     let start = solver.diagnostics();
-    let n = solver.particles.len();
+    let n = solver.particles().len();
     println!(
         "dam break: {n} particles, dx = {dx} m, {} threads",
         rayon::current_num_threads()
@@ -73,19 +73,19 @@ fn main() {
     let wall = Instant::now();
     let end_time = 1.0;
     let mut next_report = 0.0;
-    while solver.time < end_time {
+    while solver.time() < end_time {
         if let Err(e) = solver.step() {
             eprintln!("error: {e}");
             std::process::exit(3);
         }
-        if solver.time >= next_report {
+        if solver.time() >= next_report {
             let d = solver.diagnostics();
             println!(
                 "t = {:6.3} s  step {:6}  KE = {:9.3} J  front x = {:.3} m",
-                solver.time,
-                solver.steps,
+                solver.time(),
+                solver.steps(),
                 d.kinetic_energy,
-                solver.particles.x.iter().map(|x| x.x).fold(0.0, f64::max)
+                solver.particles().x.iter().map(|x| x.x).fold(0.0, f64::max)
             );
             next_report += 0.1;
         }
@@ -94,8 +94,8 @@ fn main() {
     let secs = wall.elapsed().as_secs_f64();
     println!(
         "done: {} steps in {secs:.2} s ({:.2e} particle-steps/s)",
-        solver.steps,
-        n as f64 * solver.steps as f64 / secs
+        solver.steps(),
+        n as f64 * solver.steps() as f64 / secs
     );
     println!(
         "mass drift {:.2e} (relative), energy {:.1} J -> {:.1} J",

@@ -20,7 +20,9 @@ mod mixing;
 pub mod multigrid;
 mod p2g;
 mod params;
+mod plan;
 mod solver;
+mod validate;
 
 pub use multigrid::{
     Activation, BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, DiffusionScheme,
@@ -28,4 +30,4 @@ pub use multigrid::{
 };
 pub use p2g::kirchhoff;
 pub use params::{BodyForce, ExplicitParams, SoftWalls, Transfer, VolumeUpdate};
-pub use solver::{ExplicitSolver, ScratchBytes, StageTimes, StepInfo};
+pub use solver::{ExplicitSolver, PreparedG2p, ScratchBytes};

@@ -6,62 +6,22 @@ use crate::g2p::{self, Extra, ExtraContext, G2pContext, Update};
 use crate::grid_update;
 use crate::materials::MaterialView;
 use crate::mixing::{self, MixingWork};
-use crate::multigrid::{
-    CouplingKind, DiffusionScheme, Drag, EffectiveFraction, Friction, PressureBuoyancy,
-};
 use crate::p2g;
 use crate::params::{ExplicitParams, Transfer, VolumeUpdate};
 use mpm_core::boundary::Boundaries;
 use mpm_core::material::Parameter;
+use mpm_core::solver::{nan_max, DtBound, RestoreError, StageTime};
 use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::volume::density_at;
 use mpm_core::{
-    Diagnostics, Dim, DimOps, GridNodes, GridSpec, Instability, Location, Material, OnInstability,
-    Particles, Real, SetupError, Stage, TimeStepPolicy, Vector, Violation,
+    columns, retry_halving, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec, Instability,
+    Location, Material, Particles, Real, SetupError, Solver, SolverState, Stage, StagePlan,
+    StageTimes, StepError, StepInfo, StepStart, TimeStepPolicy, Vector, Violation,
 };
 use rayon::prelude::*;
+use std::convert::Infallible;
 use std::ops::Mul;
-use std::time::{Duration, Instant};
-
-/// Wall-clock time spent in each stage, accumulated over all steps.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StageTimes {
-    /// Time-step selection.
-    pub time_step: Duration,
-    /// Binning particles into blocks.
-    pub sort: Duration,
-    /// Volume re-estimation (only with [`VolumeUpdate::Reestimate`]).
-    pub volume: Duration,
-    /// Particle-to-grid transfer.
-    pub p2g: Duration,
-    /// Grid velocity update and boundaries.
-    pub grid_update: Duration,
-    /// Coupling between phase grids (multi-grid only), with its normal and rest-density scatter.
-    pub coupling: Duration,
-    /// Concentration diffusion (miscible mixing only).
-    pub diffusion: Duration,
-    /// Grid-to-particle transfer and checks.
-    pub g2p: Duration,
-    /// Writing accepted particle updates.
-    pub commit: Duration,
-}
-
-impl StageTimes {
-    /// `(stage name, seconds)` for every stage, in execution order.
-    pub fn table(&self) -> [(&'static str, f64); 9] {
-        [
-            ("time_step", self.time_step.as_secs_f64()),
-            ("sort", self.sort.as_secs_f64()),
-            ("volume", self.volume.as_secs_f64()),
-            ("diffusion", self.diffusion.as_secs_f64()),
-            ("p2g", self.p2g.as_secs_f64()),
-            ("grid_update", self.grid_update.as_secs_f64()),
-            ("coupling", self.coupling.as_secs_f64()),
-            ("g2p", self.g2p.as_secs_f64()),
-            ("commit", self.commit.as_secs_f64()),
-        ]
-    }
-}
+use std::time::Instant;
 
 /// Scratch memory of a solver's workspace (bytes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -70,17 +30,6 @@ pub struct ScratchBytes {
     pub particles: usize,
     /// Arrays that scale with the grid: dense nodes, FLIP velocities, block counts and buffers.
     pub grid: usize,
-}
-
-/// What one accepted step did.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StepInfo {
-    /// The accepted time step (s).
-    pub dt: Real,
-    /// Number of dt/2 retries before it was accepted.
-    pub retries: u32,
-    /// Simulation time after the step (s).
-    pub time: Real,
 }
 
 /// Scratch memory reused by every step. The per-phase vectors have one entry per phase.
@@ -109,23 +58,21 @@ impl<const D: usize> Workspace<D> {
 
 /// Explicit MLS-MPM on a single grid.
 #[derive(Clone, Debug)]
+///
+/// The set-up (grid, parameters, materials, boundaries) and the particles are checked once in
+/// [`ExplicitSolver::new`] and stay private, so they cannot be changed behind the checks.
 pub struct ExplicitSolver<const D: usize> {
-    /// Grid geometry.
-    pub spec: GridSpec<D>,
-    /// Solver parameters.
-    pub params: ExplicitParams<D>,
-    /// Material table, indexed by `particles.material`.
-    pub materials: Vec<Material>,
-    /// Grid boundary conditions.
-    pub boundaries: Boundaries<D>,
-    /// Particle state.
-    pub particles: Particles<D>,
+    spec: GridSpec<D>,
+    params: ExplicitParams<D>,
+    materials: Vec<Material>,
+    boundaries: Boundaries<D>,
+    particles: Particles<D>,
     /// Simulation time (s).
-    pub time: Real,
+    time: Real,
     /// Number of accepted steps.
-    pub steps: u64,
-    /// Accumulated stage timings.
-    pub stats: StageTimes,
+    steps: u64,
+    stats: StageTimes,
+    plan: StagePlan,
     geometry_needs: Vec<GeometryNeeds>,
     ws: Workspace<D>,
 }
@@ -143,9 +90,9 @@ where
         boundaries: Boundaries<D>,
         particles: Particles<D>,
     ) -> Result<Self, SetupError> {
-        validate(&spec, &params, &materials, &particles)?;
+        crate::validate::validate(&spec, &params, &materials, &particles)?;
         let phases = params.phases.count as usize;
-        Ok(Self {
+        let mut s = Self {
             geometry_needs: coupling::geometry_needs(phases, &params.phases.couplings),
             ws: Workspace::new(phases),
             spec,
@@ -156,7 +103,75 @@ where
             time: 0.0,
             steps: 0,
             stats: StageTimes::default(),
-        })
+            plan: StagePlan::default(),
+        };
+        s.plan = crate::plan::decide(&s, &s.geometry_needs);
+        Ok(s)
+    }
+
+    /// Grid geometry.
+    pub fn spec(&self) -> &GridSpec<D> {
+        &self.spec
+    }
+
+    /// Solver parameters.
+    pub fn params(&self) -> &ExplicitParams<D> {
+        &self.params
+    }
+
+    /// Material table, indexed by the particles' material column.
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// Grid boundary conditions.
+    pub fn boundaries(&self) -> &Boundaries<D> {
+        &self.boundaries
+    }
+
+    /// Particle state.
+    pub fn particles(&self) -> &Particles<D> {
+        &self.particles
+    }
+
+    /// Particle velocities (m/s), writable: the next step transfers them to the grid.
+    pub fn velocities_mut(&mut self) -> &mut [Vector<D>] {
+        &mut self.particles.v
+    }
+
+    /// Simulation time (s).
+    pub fn time(&self) -> Real {
+        self.time
+    }
+
+    /// Number of accepted steps.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Wall time accumulated per stage.
+    pub fn stats(&self) -> &StageTimes {
+        &self.stats
+    }
+
+    /// The same set-up around `particles` at `time` (s) after `steps` steps: the particles are
+    /// checked against the grid and materials as in [`ExplicitSolver::new`].
+    fn with_particles(
+        &self,
+        particles: Particles<D>,
+        time: Real,
+        steps: u64,
+    ) -> Result<Self, SetupError> {
+        let mut s = Self::new(
+            self.spec,
+            self.params.clone(),
+            self.materials.clone(),
+            self.boundaries.clone(),
+            particles,
+        )?;
+        s.time = time;
+        s.steps = steps;
+        Ok(s)
     }
 
     /// Number of phases (grids).
@@ -165,7 +180,7 @@ where
     }
 
     /// Whether the phase grids are coupled (more than one phase): the multi-grid path.
-    fn multigrid(&self) -> bool {
+    pub(crate) fn multigrid(&self) -> bool {
         self.phase_count() > 1
     }
 
@@ -176,118 +191,52 @@ where
             || self.params.dissolution.is_some()
     }
 
-    /// The stages a step runs, in order, with the phases and couplings they involve; stages the
-    /// scene does not need are left out (DESIGN §5).
-    pub fn stage_plan(&self) -> Vec<String> {
-        let p = &self.params;
-        let mut plan = vec!["time_step".to_string(), "sort".to_string()];
-        if p.volume == VolumeUpdate::Reestimate {
-            plan.push("volume re-estimation".into());
-        }
-        if let Some(m) = &p.mixing {
-            let scheme = match m.scheme {
-                DiffusionScheme::KernelGradient => "kernel gradient",
-                DiffusionScheme::MlsDifference => "MLS difference, Eqs. 34-35",
-            };
-            plan.push(format!(
-                "diffusion of materials {} and {} (k_d = {} m^2/s, {scheme})",
-                m.fluids[0], m.fluids[1], m.diffusivity
-            ));
-        }
-        plan.push(format!("p2g ({} grid(s))", self.phase_count()));
-        plan.push("grid velocities and gravity".into());
-        for (k, n) in self.geometry_needs.iter().enumerate() {
-            if n.geometry {
-                let extra = if n.pressure {
-                    " and pore pressure (Eq. 15)"
-                } else {
-                    ""
-                };
-                plan.push(format!(
-                    "phase {k}: normals and rest density (Eqs. 26, 31){extra}"
-                ));
-            }
-        }
-        for c in &p.phases.couplings {
-            let [a, b] = c.phases;
-            let kind = match c.kind {
-                CouplingKind::Full => "full (single-grid)".to_string(),
-                CouplingKind::Drag(d) => format!("drag {d:?} (Eqs. 14, 17)"),
-                CouplingKind::Contact(cc) => format!(
-                    "contact beta = {}, {:?}, {:?} (Eqs. 24-30)",
-                    cc.normal_share, cc.friction, cc.activation
-                ),
-            };
-            plan.push(format!("coupling {a}-{b}: {kind}"));
-            if let Some(bp) = c.buoyancy {
-                plan.push(format!(
-                    "coupling {a}-{b}: buoyancy penalty c_b = {} (Eq. 32)",
-                    bp.strength
-                ));
-            }
-            if c.pressure_buoyancy == PressureBuoyancy::On {
-                plan.push(format!(
-                    "coupling {a}-{b}: pore-pressure buoyancy (Eq. 15, unstable)"
-                ));
-            }
-        }
-        plan.push("boundaries".into());
-        plan.push("g2p".into());
-        if let Some(po) = &p.porous {
-            plan.push(format!(
-                "volume fraction (Eqs. 19-20), phi_eff {:?}, {} interaction(s)",
-                po.update,
-                po.interactions.len()
-            ));
-        }
-        if let Some(d) = &p.dissolution {
-            plan.push(format!(
-                "dissolution of material {} into {} (rate {} 1/s)",
-                d.solid, d.into, d.rate
-            ));
-        }
-        plan.push("commit".into());
-        plan
-    }
-
     /// Advances one step. On a failed guard check the step is retried with dt/2 when the policy
     /// allows it; otherwise an [`Instability`] names the step, stage, particle or node and value.
-    /// A failed step leaves the particle state untouched.
+    /// A failed step leaves the particle state untouched. (The same as [`Solver::step`], with
+    /// the error type narrowed: this solver has no iterative solve that could fail.)
     pub fn step(&mut self) -> Result<StepInfo, Instability> {
-        let t0 = Instant::now();
-        let stable = match self.params.time_step {
-            // A fixed step does not use the bound; the guard checks still catch bad states.
-            TimeStepPolicy::Fixed { .. } => Real::INFINITY,
-            TimeStepPolicy::Adaptive { .. } => self.stable_dt(),
+        self.advance_step().map_err(|e| match e {
+            StepError::Instability(i) => i,
+            StepError::Solve { source, .. } => match source {},
+        })
+    }
+
+    /// [`ExplicitSolver::step`] with the shared step machinery.
+    fn advance_step(&mut self) -> Result<StepInfo, StepError<Infallible>> {
+        let start = StepStart {
+            step: self.steps,
+            time: self.time,
         };
-        let dt0 = choose_dt(&self.params.time_step, stable)
-            .map_err(|e| self.instability(Stage::TimeStep, 0.0, e, 0))?;
-        self.stats.time_step += t0.elapsed();
-        let max_retries = match self.params.on_instability {
-            OnInstability::Abort => 0,
-            OnInstability::Retry { max_retries } => max_retries,
-        };
-        let (mut dt, mut retries) = (dt0, 0);
-        loop {
-            match self.advance(dt) {
-                Ok(()) => break,
-                Err((stage, e)) if retries == max_retries => {
-                    return Err(self.instability(stage, dt, e, retries));
-                }
-                Err(_) => (dt, retries) = (0.5 * dt, retries + 1),
-            }
-        }
+        let t = Instant::now();
+        let dt0 = self.choose_dt();
+        self.stats.add(Stage::TimeStep, t.elapsed());
+        let dt0 = dt0.map_err(|e| start.error(Failure::Guard(Stage::TimeStep, e), 0.0, 0))?;
+        let policy = self.params.on_instability;
+        let (_, dt, retries) = retry_halving(policy, start, dt0, |dt| self.attempt(dt))?;
         self.time += dt;
         self.steps += 1;
         Ok(StepInfo {
             dt,
             retries,
             time: self.time,
+            solves: Vec::new(),
+            events: Vec::new(),
         })
     }
 
+    /// The step under the time-step policy, or why none can be taken.
+    fn choose_dt(&self) -> Result<Real, (Location, Violation, Real)> {
+        let stable = match self.params.time_step {
+            // A fixed step does not use the bound; the guard checks still catch bad states.
+            TimeStepPolicy::Fixed { .. } => Real::INFINITY,
+            TimeStepPolicy::Adaptive { .. } => self.stable_dt(),
+        };
+        choose_dt(&self.params.time_step, stable)
+    }
+
     /// One attempt at a step of size `dt`: the stage plan.
-    fn advance(&mut self, dt: Real) -> Result<(), (Stage, (Location, Violation, Real))> {
+    fn attempt(&mut self, dt: Real) -> Result<(), Failure<Infallible>> {
         self.sort_particles();
         if self.params.volume == VolumeUpdate::Reestimate {
             self.reestimate_volumes();
@@ -296,29 +245,63 @@ where
             self.diffuse(dt);
         }
         self.particle_to_grid(dt);
-        self.update_grid(dt).map_err(|e| (Stage::GridUpdate, e))?;
+        self.update_grid(dt)
+            .map_err(Failure::guard(Stage::GridUpdate))?;
         if self.multigrid() {
-            self.couple_phases(dt).map_err(|e| (Stage::GridUpdate, e))?;
+            self.couple_phases(dt)
+                .map_err(Failure::guard(Stage::Coupling))?;
         }
-        self.grid_to_particle(dt).map_err(|e| (Stage::G2P, e))?;
+        self.grid_to_particle(dt)
+            .map_err(Failure::guard(Stage::G2P))?;
         self.commit();
         Ok(())
     }
 
+    /// P2G alone (binning, then the transfer) on the current state for a step of `dt` (s),
+    /// leaving the particles unchanged: for benchmarks and for inspecting the grid.
+    pub fn transfer_to_grid(&mut self, dt: Real) {
+        self.sort_particles();
+        self.particle_to_grid(dt);
+    }
+
+    /// Re-estimates fluid volumes (`J_p = m_p/(ρ_p V⁰_p)`) from the grid density at the current
+    /// positions, as the volume stage of a step does with [`VolumeUpdate::Reestimate`].
+    pub fn reestimate_volumes_now(&mut self) {
+        self.sort_particles();
+        self.reestimate_volumes();
+    }
+
+    /// Runs every stage before G2P for a step of `dt` (s) and returns a handle whose
+    /// [`PreparedG2p::run`] performs G2P and the commit: for benchmarks that time G2P alone.
+    pub fn prepare_g2p(&mut self, dt: Real) -> Result<PreparedG2p<'_, D>, StepError<Infallible>> {
+        let start = StepStart {
+            step: self.steps,
+            time: self.time,
+        };
+        self.transfer_to_grid(dt);
+        self.update_grid(dt)
+            .map_err(|e| start.error(Failure::Guard(Stage::GridUpdate, e), dt, 0))?;
+        if self.multigrid() {
+            self.couple_phases(dt)
+                .map_err(|e| start.error(Failure::Guard(Stage::Coupling, e), dt, 0))?;
+        }
+        Ok(PreparedG2p { solver: self, dt })
+    }
+
     /// Stage: bins each phase's particles into grid blocks for the deterministic parallel
     /// scatter.
-    pub fn sort_particles(&mut self) {
+    fn sort_particles(&mut self) {
         let t = Instant::now();
         let phase = self.particles.phase.as_deref();
         for (k, blocks) in self.ws.blocks.iter_mut().enumerate() {
             let only = phase.map(|ph| (ph, k as u32));
             blocks.sort(&self.spec, self.params.kernel, &self.particles.x, only);
         }
-        self.stats.sort += t.elapsed();
+        self.stats.add(Stage::Sort, t.elapsed());
     }
 
     /// Stage (optional): re-estimates fluid volumes from the grid density.
-    pub fn reestimate_volumes(&mut self) {
+    fn reestimate_volumes(&mut self) {
         let t = Instant::now();
         let (spec, kernel) = (&self.spec, self.params.kernel);
         for (blocks, grid) in self.ws.blocks.iter_mut().zip(self.ws.grids.iter_mut()) {
@@ -343,12 +326,12 @@ where
                 }
             });
         }
-        self.stats.volume += t.elapsed();
+        self.stats.add(Stage::Volume, t.elapsed());
     }
 
     /// Stage (mixing only): diffuses the concentration of the mixing fluids over a step of
     /// `dt` (s) into scratch storage, committed with the step. Requires [`Self::sort_particles`].
-    pub fn diffuse(&mut self, dt: Real) {
+    fn diffuse(&mut self, dt: Real) {
         let Some(mix) = &self.params.mixing else {
             return;
         };
@@ -363,7 +346,7 @@ where
             &mut self.ws.mixing,
             dt,
         );
-        self.stats.diffusion += t.elapsed();
+        self.stats.add(Stage::Diffusion, t.elapsed());
     }
 
     /// The phase of the mixing fluids (all in one phase, checked at setup).
@@ -376,7 +359,7 @@ where
 
     /// Stage: P2G of every phase onto its own grid, with the fused MLS stress impulse for a step
     /// of `dt` (s). Requires [`Self::sort_particles`] first.
-    pub fn particle_to_grid(&mut self, dt: Real) {
+    fn particle_to_grid(&mut self, dt: Real) {
         let t = Instant::now();
         let flip = matches!(self.params.transfer, Transfer::Flip { .. });
         let view = material_view(&self.materials, &self.params);
@@ -400,12 +383,12 @@ where
                 (self.time, dt),
             );
         }
-        self.stats.p2g += t.elapsed();
+        self.stats.add(Stage::P2G, t.elapsed());
     }
 
     /// Stage: grid velocities and gravity for every phase; boundaries too on a single grid
     /// (multi-grid runs apply them after the coupling stage).
-    pub fn update_grid(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
+    fn update_grid(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
         let t = Instant::now();
         let flip = matches!(self.params.transfer, Transfer::Flip { .. });
         let boundaries = (!self.multigrid()).then_some(&self.boundaries);
@@ -426,13 +409,13 @@ where
                 dt,
             ));
         }
-        self.stats.grid_update += t.elapsed();
+        self.stats.add(Stage::GridUpdate, t.elapsed());
         r
     }
 
     /// Stage (multi-grid only): scatters the normals and rest densities the couplings need,
     /// applies every coupling in order, then the boundaries of every phase.
-    pub fn couple_phases(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
+    fn couple_phases(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
         let t = Instant::now();
         let view = material_view(&self.materials, &self.params);
         let ws = &mut self.ws;
@@ -468,12 +451,12 @@ where
                 self.time,
             ));
         }
-        self.stats.coupling += t.elapsed();
+        self.stats.add(Stage::Coupling, t.elapsed());
         r
     }
 
     /// Stage: G2P into scratch storage with guard checks (particles are not modified).
-    pub fn grid_to_particle(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
+    fn grid_to_particle(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
         let t = Instant::now();
         let flip = matches!(self.params.transfer, Transfer::Flip { .. });
         let ctx = G2pContext {
@@ -506,12 +489,12 @@ where
                 dt,
             );
         }
-        self.stats.g2p += t.elapsed();
+        self.stats.add(Stage::G2P, t.elapsed());
         r
     }
 
     /// Stage: writes the checked G2P results into the particles.
-    pub fn commit(&mut self) {
+    fn commit(&mut self) {
         let t = Instant::now();
         g2p::commit(&mut self.particles, &self.ws.updates);
         if self.has_extra_state() {
@@ -523,7 +506,7 @@ where
                 self.params.dissolution.as_ref(),
             );
         }
-        self.stats.commit += t.elapsed();
+        self.stats.add(Stage::Commit, t.elapsed());
     }
 
     /// The stable explicit step bound (s) for the current state, before `dt_max`:
@@ -637,24 +620,95 @@ where
             &self.params.gravity,
         )
     }
+}
 
-    fn instability(
-        &self,
-        stage: Stage,
-        dt: Real,
-        (location, violation, value): (Location, Violation, Real),
-        retries: u32,
-    ) -> Instability {
-        Instability {
-            step: self.steps,
-            time: self.time,
-            dt,
-            stage,
-            location,
-            violation,
-            value,
-            retries,
+/// A solver with every stage before G2P done for one step (see
+/// [`ExplicitSolver::prepare_g2p`]).
+pub struct PreparedG2p<'a, const D: usize> {
+    solver: &'a mut ExplicitSolver<D>,
+    dt: Real,
+}
+
+impl<const D: usize> PreparedG2p<'_, D>
+where
+    Dim<D>: DimOps<D>,
+{
+    /// G2P with its guard checks, then the commit; the particles are unchanged when a check
+    /// fails. Time and the step count do not advance.
+    pub fn run(self) -> Result<(), (Location, Violation, Real)> {
+        self.solver.grid_to_particle(self.dt)?;
+        self.solver.commit();
+        Ok(())
+    }
+}
+
+/// The explicit solver behind the solver seam; its particles are its whole state.
+impl<const D: usize> Solver<D> for ExplicitSolver<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    fn name(&self) -> &'static str {
+        "explicit MLS-MPM"
+    }
+
+    fn spec(&self) -> &GridSpec<D> {
+        &self.spec
+    }
+
+    fn particles(&self) -> &Particles<D> {
+        &self.particles
+    }
+
+    fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    fn time(&self) -> Real {
+        self.time
+    }
+
+    fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    fn stable_dt(&self) -> Real {
+        ExplicitSolver::stable_dt(self)
+    }
+
+    fn dt_bound(&self) -> DtBound {
+        DtBound {
+            description: "min(dx / max(|v| + c), viscous limit)",
+            limits_fixed_dt: true,
         }
+    }
+
+    fn diagnostics(&self) -> Diagnostics<D> {
+        ExplicitSolver::diagnostics(self)
+    }
+
+    fn plan(&self) -> StagePlan {
+        self.plan.clone()
+    }
+
+    fn step(&mut self) -> Result<StepInfo, StepError> {
+        ExplicitSolver::step(self).map_err(StepError::Instability)
+    }
+
+    fn stage_times(&self) -> Vec<StageTime> {
+        self.stats.rows(&self.plan)
+    }
+
+    fn checkpoint(&self) -> SolverState {
+        SolverState::of_particles(&self.particles, self.time, self.steps)
+    }
+
+    fn restore(&mut self, state: &SolverState) -> Result<(), RestoreError> {
+        let particles =
+            columns::particles_from_columns(&state.columns, &self.particles, self.materials.len())?;
+        *self = self
+            .with_particles(particles, state.time, state.steps)
+            .map_err(|e| RestoreError(format!("does not fit this scene: {e}")))?;
+        Ok(())
     }
 }
 
@@ -664,273 +718,4 @@ fn material_view<'a, const D: usize>(
     params: &'a ExplicitParams<D>,
 ) -> MaterialView<'a> {
     MaterialView::new(materials, params.porous.as_ref(), params.mixing.as_ref())
-}
-
-/// `max` that propagates NaN, so a NaN speed is noticed instead of ignored.
-fn nan_max(a: Real, b: Real) -> Real {
-    if a.is_nan() || b.is_nan() {
-        Real::NAN
-    } else {
-        a.max(b)
-    }
-}
-
-fn validate<const D: usize>(
-    spec: &GridSpec<D>,
-    params: &ExplicitParams<D>,
-    materials: &[Material],
-    particles: &Particles<D>,
-) -> Result<(), SetupError> {
-    let invalid = |name, value, reason| {
-        Err(SetupError::InvalidParameter {
-            name,
-            value,
-            reason,
-        })
-    };
-    if !(spec.dx > 0.0 && spec.dx.is_finite()) {
-        return invalid("grid.dx", spec.dx, "must be positive and finite");
-    }
-    if let Some(&n) = spec.size.iter().find(|&&n| n < params.kernel.support() + 1) {
-        return invalid("grid.size", n as Real, "too few nodes for the kernel");
-    }
-    params.time_step.validate()?;
-    if let Transfer::Flip { blend } = params.transfer {
-        if !(0.0..=1.0).contains(&blend) {
-            return invalid("flip blend", blend, "must lie in [0, 1]");
-        }
-    }
-    if let Some(sw) = params.soft_walls {
-        if !(sw.lookahead > 0.0 && sw.margin >= 0.0) {
-            return invalid("soft_walls.lookahead", sw.lookahead, "must be positive");
-        }
-    }
-    let columns = particles.columns();
-    for (k, m) in materials.iter().enumerate() {
-        let used = particles.material.iter().any(|&i| i as usize == k);
-        let missing = if !used {
-            None
-        } else if m.needs_deformation_gradient() && !columns.deformation_gradient {
-            Some("F")
-        } else if matches!(m, Material::Fluid(_)) && !columns.jacobian {
-            Some("J")
-        } else if m.needs_plastic_state() && !columns.plastic {
-            Some("plastic")
-        } else {
-            None
-        };
-        if let Some(column) = missing {
-            return Err(SetupError::MissingColumn {
-                material: k,
-                column,
-            });
-        }
-    }
-    validate_multigrid(params, materials, particles)?;
-    for p in 0..particles.len() {
-        let material = particles.material[p];
-        if material as usize >= materials.len() {
-            return Err(SetupError::UnknownMaterial {
-                index: p,
-                material,
-                count: materials.len(),
-            });
-        }
-        if !spec.contains_stencil(params.kernel, &particles.x[p]) {
-            return Err(SetupError::ParticleOutsideGrid {
-                index: p,
-                position: format!("{:?}", particles.x[p].as_slice()),
-            });
-        }
-    }
-    Ok(())
-}
-
-/// Checks the phases, couplings, porous interaction, mixing and dissolution against the
-/// materials and particle columns.
-fn validate_multigrid<const D: usize>(
-    params: &ExplicitParams<D>,
-    materials: &[Material],
-    particles: &Particles<D>,
-) -> Result<(), SetupError> {
-    let fail = |setting: &str, reason: String| {
-        Err(SetupError::InvalidSetting {
-            setting: setting.to_string(),
-            reason,
-        })
-    };
-    let count = params.phases.count;
-    let columns = particles.columns();
-    if count == 0 {
-        return fail("phases", "there must be at least one phase".into());
-    }
-    if count > 1 && !columns.phase {
-        return fail(
-            "phases",
-            format!("{count} phases need the particle column `phase`"),
-        );
-    }
-    if let Some(p) = (0..particles.len()).find(|&p| particles.phase_of(p) >= count) {
-        return fail(
-            "phases",
-            format!(
-                "particle {p} is in phase {}, but only {count} exist",
-                particles.phase_of(p)
-            ),
-        );
-    }
-    let nonneg = |x: Real| x >= 0.0 && x.is_finite();
-    for (n, c) in params.phases.couplings.iter().enumerate() {
-        let name = format!("coupling {n}");
-        let [a, b] = c.phases;
-        if a == b || a >= count || b >= count {
-            return fail(
-                &name,
-                format!("phases {a} and {b} must be distinct and below {count}"),
-            );
-        }
-        let ok = match c.kind {
-            CouplingKind::Full => true,
-            CouplingKind::Drag(Drag::Coefficient(k)) => k >= 0.0,
-            CouplingKind::Drag(Drag::Permeability {
-                porosity,
-                conductivity,
-            }) => porosity > 0.0 && porosity <= 1.0 && conductivity > 0.0,
-            CouplingKind::Contact(cc) => {
-                let delta = match cc.friction {
-                    Friction::Coulomb(d) | Friction::Proportional(d) => d,
-                };
-                (0.0..=1.0).contains(&cc.normal_share) && delta >= 0.0
-            }
-        };
-        if !ok {
-            return fail(
-                &name,
-                "drag coefficient, porosity (0, 1], conductivity > 0, normal share [0, 1] and \
-                 friction >= 0 are required"
-                    .into(),
-            );
-        }
-        if c.buoyancy.is_some_and(|bp| !nonneg(bp.strength)) {
-            return fail(&name, "the buoyancy strength c_b must be >= 0".into());
-        }
-    }
-    if let Some(porous) = &params.porous {
-        if count < 2 {
-            return fail(
-                "porous",
-                "porous interaction needs at least two phases".into(),
-            );
-        }
-        if !columns.volume_fraction {
-            return fail("porous", "needs the particle column `phi_eff`".into());
-        }
-        if let EffectiveFraction::Relax { rate } | EffectiveFraction::MaxRelax { rate } =
-            porous.update
-        {
-            if !nonneg(rate) {
-                return fail("porous", format!("relaxation rate {rate} must be >= 0"));
-            }
-        }
-        for it in &porous.interactions {
-            let Some(m) = materials.get(it.material as usize) else {
-                return fail("porous", format!("unknown material {}", it.material));
-            };
-            if !it.parameter.applies_to(m) {
-                return fail(
-                    "porous",
-                    format!(
-                        "material {} has no parameter {:?}",
-                        it.material, it.parameter
-                    ),
-                );
-            }
-            if !(it.scaling.exponent > 0.0
-                && it.scaling.offset.is_finite()
-                && it.scaling.slope.is_finite())
-            {
-                return fail(
-                    "porous",
-                    "scaling needs exponent > 0 and finite offset and slope".into(),
-                );
-            }
-        }
-    }
-    if let Some(mix) = &params.mixing {
-        for k in mix.fluids {
-            if !matches!(materials.get(k as usize), Some(Material::Fluid(_))) {
-                return fail("mixing", format!("material {k} is not a fluid"));
-            }
-        }
-        if mix.fluids[0] == mix.fluids[1] {
-            return fail("mixing", "the two fluids must differ".into());
-        }
-        if !columns.concentration {
-            return fail("mixing", "needs the particle column `concentration`".into());
-        }
-        if !nonneg(mix.diffusivity) {
-            return fail(
-                "mixing",
-                format!("diffusivity {} must be >= 0", mix.diffusivity),
-            );
-        }
-        if mix.scheme == DiffusionScheme::MlsDifference
-            && params.kernel.mls_inertia_inv(1.0).is_none()
-        {
-            return fail(
-                "mixing",
-                "the MLS difference scheme needs a quadratic or cubic kernel".into(),
-            );
-        }
-        let mut phases = (0..particles.len())
-            .filter(|&p| mix.fluids.contains(&particles.material[p]))
-            .map(|p| particles.phase_of(p));
-        if let Some(first) = phases.next() {
-            if phases.any(|k| k != first) {
-                return fail(
-                    "mixing",
-                    "all particles of the two fluids must be in one phase".into(),
-                );
-            }
-        }
-    }
-    if let Some(d) = &params.dissolution {
-        if !matches!(materials.get(d.solid as usize), Some(Material::Solid(_))) {
-            return fail(
-                "dissolution",
-                format!("material {} is not a solid", d.solid),
-            );
-        }
-        if params.mixing.is_none_or(|m| m.fluids[1] != d.into) {
-            return fail(
-                "dissolution",
-                format!("material {} must be the second fluid of the mixing", d.into),
-            );
-        }
-        if d.fluid_phase >= count || !nonneg(d.rate) {
-            return fail(
-                "dissolution",
-                "needs an existing fluid phase and a rate >= 0".into(),
-            );
-        }
-        if !columns.concentration {
-            return fail(
-                "dissolution",
-                "needs the particle column `concentration`".into(),
-            );
-        }
-        let fluids = params.mixing.map_or([u32::MAX; 2], |m| m.fluids);
-        if let Some(p) = (0..particles.len()).find(|&p| fluids.contains(&particles.material[p])) {
-            if particles.phase_of(p) != d.fluid_phase {
-                return fail(
-                    "dissolution",
-                    format!(
-                        "the mixing fluids must be in the solvent phase {}",
-                        d.fluid_phase
-                    ),
-                );
-            }
-        }
-    }
-    Ok(())
 }

@@ -60,8 +60,8 @@ fn snow_singular_values_stay_in_bounds() {
         s.step().unwrap();
     }
     let (f, states) = (
-        s.particles.def_grad.as_ref().unwrap(),
-        s.particles.plastic.as_ref().unwrap(),
+        s.particles().def_grad.as_ref().unwrap(),
+        s.particles().plastic.as_ref().unwrap(),
     );
     let tol = 1e-12;
     for fe in f {
@@ -96,12 +96,12 @@ fn sand_stays_inside_its_yield_cone() {
     });
     let mut s = drop_block(material, Vector::<2>::zeros());
     let width0 = spread(&s);
-    while s.time < 0.3 {
+    while s.time() < 0.3 {
         s.step().unwrap();
     }
-    let states = s.particles.plastic.clone().unwrap();
+    let states = s.particles().plastic.clone().unwrap();
     s.step().unwrap();
-    let f = s.particles.def_grad.as_ref().unwrap();
+    let f = s.particles().def_grad.as_ref().unwrap();
     let worst = f
         .iter()
         .zip(&states)
@@ -125,6 +125,6 @@ fn spread<const D: usize>(s: &ExplicitSolver<D>) -> Real
 where
     Dim<D>: DimOps<D>,
 {
-    let xs = s.particles.x.iter().map(|x| x[0]);
+    let xs = s.particles().x.iter().map(|x| x[0]);
     xs.clone().fold(Real::NEG_INFINITY, Real::max) - xs.fold(Real::INFINITY, Real::min)
 }

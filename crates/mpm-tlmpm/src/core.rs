@@ -3,28 +3,25 @@
 use crate::adaptive::Adaptive;
 use crate::contact::{ContactRadius, ContactStage, ContactStats};
 use crate::error::{NewtonError, StepError};
-use crate::params::{TlmpmParams, Transfer};
+use crate::params::{ImplicitParams, TlmpmParams, Transfer};
 use crate::potential::Constitutive;
 use crate::reference::{Constraints, ReferenceConfig};
 use crate::transfer::{self, Update};
+use crate::{ExplicitTlmpm, ImplicitTlmpm};
 use mpm_core::material::{ElasticModel, Lame, Plasticity};
+use mpm_core::solver::{nan_max, RestoreError, SolveInfo, SolverState, StepInfo};
 use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::{
-    Diagnostics, Dim, DimOps, GridSpec, Instability, Location, Material, Matrix, OnInstability,
-    Particles, Real, SetupError, Stage, TimeStepPolicy, Vector, Violation,
+    columns, retry_halving, Column, Diagnostics, Dim, DimOps, GridSpec, Location, Material, Matrix,
+    Particles, Real, SetupError, Solver, Stage, StagePlan, StepStart, TimeStepPolicy, Vector,
+    Violation,
 };
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Duration;
 
-/// Why one attempt at a step failed.
-#[derive(Clone, Debug)]
-pub(crate) enum Failure {
-    /// A guard check failed in the named stage.
-    Guard(Stage, (Location, Violation, Real)),
-    /// Newton's method failed.
-    Newton(NewtonError),
-}
+/// Why one attempt at a step failed: a guard check, or Newton's method.
+pub(crate) type Failure = mpm_core::Failure<NewtonError>;
 
 /// Wall-clock time spent inside Newton's method, by kind of work, accumulated over all steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -41,51 +38,6 @@ pub struct NewtonTimes {
     pub factorization: Duration,
     /// Triangular solves or CG iterations.
     pub linear_solve: Duration,
-}
-
-/// Wall-clock time spent in each stage, accumulated over all steps.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct StageTimes {
-    /// Caching the reference configuration (weights, gradients, connectivity, sparsity
-    /// pattern and symbolic factorisation): once, at set-up.
-    pub reference: Duration,
-    /// Time-step selection.
-    pub time_step: Duration,
-    /// Momentum to the reference grid (P2G).
-    pub p2g: Duration,
-    /// External nodal forces (gravity).
-    pub external_forces: Duration,
-    /// Particle contact forces (Eq. 4) and their P2G to the nodes.
-    pub contact: Duration,
-    /// Grid solve: Newton (implicit) or the symplectic Euler update (explicit).
-    pub solve: Duration,
-    /// G2P, F update and guard checks.
-    pub g2p: Duration,
-    /// Writing accepted particle updates.
-    pub commit: Duration,
-    /// A-ULMPM: the trigger test after every step and the reference updates it fires (for the
-    /// implicit solver the sparsity pattern and symbolic factorisation are rebuilt at the start
-    /// of the next step and counted in `solve`).
-    pub reference_update: Duration,
-    /// Breakdown of the implicit solve.
-    pub newton: NewtonTimes,
-}
-
-impl StageTimes {
-    /// `(stage name, seconds)` for every stage, in execution order.
-    pub fn table(&self) -> [(&'static str, f64); 9] {
-        [
-            ("reference", self.reference.as_secs_f64()),
-            ("time_step", self.time_step.as_secs_f64()),
-            ("p2g", self.p2g.as_secs_f64()),
-            ("external_forces", self.external_forces.as_secs_f64()),
-            ("contact", self.contact.as_secs_f64()),
-            ("solve", self.solve.as_secs_f64()),
-            ("g2p", self.g2p.as_secs_f64()),
-            ("commit", self.commit.as_secs_f64()),
-            ("reference_update", self.reference_update.as_secs_f64()),
-        ]
-    }
 }
 
 /// The solver state beyond the particle columns: what a checkpoint must hold, besides the
@@ -107,6 +59,195 @@ pub struct TlmpmState<const D: usize> {
     pub base_def_grad: Option<Vec<Matrix<D>>>,
     /// Number of A-ULMPM reference updates so far.
     pub reference_updates: u64,
+}
+
+/// What both TLMPM integrators offer beyond the [`Solver`] interface: applied per-particle
+/// forces and the reference configuration.
+pub trait TotalLagrangian<const D: usize>: Solver<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    /// Applied per-particle forces f_p (N), allocated as zeros on first use; they enter as nodal
+    /// forces `Σ_p W_i(X_p) f_p` and persist until changed.
+    fn particle_forces_mut(&mut self) -> &mut [Vector<D>];
+
+    /// The reference configuration (its grid, positions, weights).
+    fn reference(&self) -> &ReferenceConfig<D>;
+}
+
+/// Builds the implicit solver when `implicit` is given, else the explicit one (see
+/// [`crate::ImplicitTlmpm::new`] for the requirements).
+pub fn build<const D: usize>(
+    spec: GridSpec<D>,
+    params: TlmpmParams<D>,
+    implicit: Option<ImplicitParams>,
+    materials: Vec<Material>,
+    particles: Particles<D>,
+) -> Result<Box<dyn TotalLagrangian<D>>, SetupError>
+where
+    Dim<D>: DimOps<D>,
+{
+    Ok(match implicit {
+        Some(ip) => Box::new(ImplicitTlmpm::new(spec, params, ip, materials, particles)?),
+        None => Box::new(ExplicitTlmpm::new(spec, params, materials, particles)?),
+    })
+}
+
+/// Checkpoint column of the reference positions.
+const REFERENCE_X: &str = "tlmpm_reference_x";
+/// Checkpoint column of the A-ULMPM deformation gradients since the reference configuration.
+const RELATIVE_F: &str = "tlmpm_relative_F";
+/// Checkpoint column of the A-ULMPM base deformation gradients.
+const BASE_F: &str = "tlmpm_base_F";
+/// Checkpoint attribute of the number of A-ULMPM reference updates.
+const ATTR_REFERENCE_UPDATES: &str = "tlmpm_reference_updates";
+
+/// A set-up error met while restoring, as a restore error.
+pub(crate) fn misfit(e: SetupError) -> RestoreError {
+    RestoreError(format!("does not fit this scene: {e}"))
+}
+
+/// The [`TlmpmState`] stored in `state` for `n` particles.
+pub(crate) fn state_from<const D: usize>(
+    state: &SolverState,
+    n: usize,
+) -> Result<TlmpmState<D>, RestoreError> {
+    let cols = &state.columns;
+    let reference_positions = columns::f64_values(cols, REFERENCE_X, &[n, D])?
+        .ok_or_else(|| format!("checkpoint has no field `{REFERENCE_X}` (not a TLMPM run?)"))?;
+    let mats = |name| -> Result<Option<Vec<Matrix<D>>>, String> {
+        Ok(columns::f64_values(cols, name, &[n, D, D])?.map(columns::to_matrices::<D>))
+    };
+    Ok(TlmpmState {
+        time: state.time,
+        steps: state.steps,
+        reference_positions: columns::to_vectors::<D>(reference_positions),
+        relative_def_grad: mats(RELATIVE_F)?,
+        base_def_grad: mats(BASE_F)?,
+        reference_updates: state.attr(ATTR_REFERENCE_UPDATES).map_or(0, |v| v as u64),
+    })
+}
+
+/// The [`Solver`] and [`TotalLagrangian`] implementations both TLMPM solvers share, for a
+/// solver type with a `core: Core<D>` field and the inherent methods `stage_plan`, `stable_dt`,
+/// `seam_step` (the step as a [`mpm_core::StepInfo`]), `seam_stage_times` and `rebuild` (the same
+/// set-up around other particles).
+macro_rules! solver_seam {
+    ($ty:ident, $name:expr, $bound:expr, $limits_fixed_dt:expr) => {
+        impl<const D: usize> mpm_core::Solver<D> for $ty<D>
+        where
+            Dim<D>: DimOps<D>,
+        {
+            fn name(&self) -> &'static str {
+                $name
+            }
+
+            fn spec(&self) -> &GridSpec<D> {
+                self.core.reference.spec()
+            }
+
+            fn particles(&self) -> &Particles<D> {
+                &self.core.particles
+            }
+
+            fn materials(&self) -> &[Material] {
+                &self.core.materials
+            }
+
+            fn time(&self) -> Real {
+                self.core.time
+            }
+
+            fn steps(&self) -> u64 {
+                self.core.steps
+            }
+
+            fn stable_dt(&self) -> Real {
+                $ty::stable_dt(self)
+            }
+
+            fn dt_bound(&self) -> mpm_core::solver::DtBound {
+                mpm_core::solver::DtBound {
+                    description: $bound,
+                    limits_fixed_dt: $limits_fixed_dt,
+                }
+            }
+
+            fn diagnostics(&self) -> Diagnostics<D> {
+                self.core.diagnostics()
+            }
+
+            fn plan(&self) -> mpm_core::StagePlan {
+                self.stage_plan()
+            }
+
+            fn step(&mut self) -> Result<mpm_core::StepInfo, mpm_core::StepError> {
+                self.seam_step()
+            }
+
+            fn stage_times(&self) -> Vec<mpm_core::solver::StageTime> {
+                self.seam_stage_times()
+            }
+
+            fn checkpoint(&self) -> mpm_core::SolverState {
+                self.core.checkpoint()
+            }
+
+            fn restore(
+                &mut self,
+                state: &mpm_core::SolverState,
+            ) -> Result<(), mpm_core::solver::RestoreError> {
+                let particles = self.core.particles_from(state)?;
+                let mut new = self.rebuild(particles).map_err(crate::core::misfit)?;
+                new.core
+                    .particle_forces
+                    .clone_from(&self.core.particle_forces);
+                let n = new.core.particles.len();
+                new.core
+                    .restore(crate::core::state_from(state, n)?)
+                    .map_err(crate::core::misfit)?;
+                *self = new;
+                Ok(())
+            }
+        }
+
+        impl<const D: usize> crate::core::TotalLagrangian<D> for $ty<D>
+        where
+            Dim<D>: DimOps<D>,
+        {
+            fn particle_forces_mut(&mut self) -> &mut [Vector<D>] {
+                self.core.particle_forces_mut()
+            }
+
+            fn reference(&self) -> &ReferenceConfig<D> {
+                &self.core.reference
+            }
+        }
+    };
+}
+pub(crate) use solver_seam;
+
+/// The step result of either solver as a [`mpm_core::StepInfo`].
+pub(crate) fn step_info(
+    (dt, retries, time): (Real, u32, Real),
+    solves: Vec<SolveInfo>,
+    contact: Option<ContactStats>,
+    reference_updated: bool,
+) -> StepInfo {
+    let mut events = Vec::new();
+    if let Some(c) = contact {
+        events.push(("contact_pairs", c.pairs as u64));
+    }
+    if reference_updated {
+        events.push(("reference_updates", 1));
+    }
+    StepInfo {
+        dt,
+        retries,
+        time,
+        solves,
+        events,
+    }
 }
 
 /// The accessors both solvers expose over their shared [`Core`]; expanded inside each solver's
@@ -183,14 +324,6 @@ macro_rules! shared_accessors {
     };
 }
 pub(crate) use shared_accessors;
-
-/// Runs `f`, adding its wall-clock time to `acc`.
-pub(crate) fn timed<T>(acc: &mut Duration, f: impl FnOnce() -> T) -> T {
-    let t = std::time::Instant::now();
-    let r = f();
-    *acc += t.elapsed();
-    r
-}
 
 /// Particle state, cached reference data and grid scratch shared by both solvers.
 #[derive(Clone, Debug)]
@@ -287,6 +420,35 @@ where
         }
     }
 
+    /// The whole state as named columns: the particle columns, the reference positions and the
+    /// A-ULMPM deformation gradients, and the count of reference updates.
+    pub fn checkpoint(&self) -> SolverState {
+        let st = self.state();
+        let mut out = SolverState::of_particles(&self.particles, self.time, self.steps);
+        out.columns
+            .push(Column::vectors(REFERENCE_X, "m", &st.reference_positions));
+        if let Some(g) = &st.relative_def_grad {
+            out.columns.push(Column::matrices(RELATIVE_F, "1", g));
+        }
+        if let Some(b) = &st.base_def_grad {
+            out.columns.push(Column::matrices(BASE_F, "1", b));
+        }
+        out.attrs.push((
+            ATTR_REFERENCE_UPDATES.to_string(),
+            st.reference_updates as f64,
+        ));
+        out
+    }
+
+    /// The particles stored in `state`, checked against this set-up's columns and materials.
+    pub fn particles_from(&self, state: &SolverState) -> Result<Particles<D>, RestoreError> {
+        Ok(columns::particles_from_columns(
+            &state.columns,
+            &self.particles,
+            self.materials.len(),
+        )?)
+    }
+
     /// Restores a state saved by [`Core::state`] for the current particles: rebuilds the
     /// reference configuration at `state.reference_positions` and the Dirichlet numbering,
     /// and sets the A-ULMPM columns. Persistent node velocities are dropped, so the next step
@@ -342,45 +504,68 @@ where
         Ok(())
     }
 
-    /// The stage plan of one step, only the stages these parameters use; `implicit` selects
-    /// the Newton grid solve over the explicit update.
-    pub fn stage_plan(&self, implicit: bool) -> Vec<String> {
+    /// The stage plan of one step, only the stages these parameters use; `solve` describes the
+    /// grid solve (Newton, or the explicit update) and `bound` the time-step bound.
+    pub fn plan(&self, solve: String, bound: &str) -> StagePlan {
         let p = &self.params;
-        let mut plan = vec!["time_step".to_string()];
-        plan.push(match p.transfer {
-            Transfer::Persistent => "p2g (first step only; node velocities persist)".into(),
-            _ => "p2g".into(),
-        });
-        let mut ext = vec!["gravity"];
-        if !self.particle_forces.is_empty() {
-            ext.push("applied particle forces");
-        }
-        plan.push(format!("external forces ({})", ext.join(", ")));
-        if let Some(c) = &p.contact {
-            plan.push(format!(
-                "contact (Eq. 4; particle pairs{})",
-                if c.obstacles.is_empty() {
-                    String::new()
-                } else {
-                    format!(", {} obstacle(s)", c.obstacles.len())
-                }
-            ));
-        }
-        plan.push(if implicit {
-            "solve: Newton on the backward-Euler incremental potential".into()
-        } else {
-            "solve: internal forces (Eq. 3) and symplectic Euler node update".into()
-        });
+        let mut plan = StagePlan::default();
         plan.push(
+            Stage::Reference,
+            "at set-up: weights, gradients, connectivity and node masses of the reference \
+             configuration",
+        );
+        plan.push(Stage::TimeStep, p.time_step.describe(bound));
+        plan.push(
+            Stage::P2G,
+            format!(
+                "{:?} transfer on the reference grid ({} fixed region(s)){}",
+                p.transfer,
+                p.fixed.len(),
+                if p.transfer == Transfer::Persistent {
+                    "; first step only, node velocities persist"
+                } else {
+                    ""
+                }
+            ),
+        );
+        plan.push(
+            Stage::ExternalForces,
+            format!(
+                "gravity {:?} m/s^2{}",
+                p.gravity.as_slice(),
+                if self.particle_forces.is_empty() {
+                    ""
+                } else {
+                    "; applied particle forces"
+                }
+            ),
+        );
+        if let Some(c) = &p.contact {
+            plan.push(
+                Stage::Contact,
+                format!(
+                    "Eq. 4 particle pairs, radius {:?}; {} wall/collider obstacle(s), \
+                     frictionless penalty",
+                    c.radius,
+                    c.obstacles.len()
+                ),
+            );
+        }
+        plan.push(Stage::Solve, solve);
+        plan.push(
+            Stage::G2P,
             if self.adaptive.is_some() && Adaptive::<D>::needs_base(&self.materials) {
-                "g2p: F update, plastic return mapping, guard checks".into()
+                "F update, plastic return mapping, guard checks"
             } else {
-                "g2p: F update, guard checks".into()
+                "F update, guard checks"
             },
         );
-        plan.push("commit".into());
-        if self.adaptive.is_some() {
-            plan.push("reference update (A-ULMPM trigger)".into());
+        plan.push(Stage::Commit, "write checked updates");
+        if let Some(r) = &p.reference_update {
+            plan.push(
+                Stage::ReferenceUpdate,
+                format!("A-ULMPM trigger: epsilon = {}, eta = {}", r.epsilon, r.eta),
+            );
         }
         plan
     }
@@ -453,7 +638,7 @@ where
             .position_first(|u| u.iter().any(|c| !c.is_finite()))
         {
             Some(i) => Err(Failure::Guard(
-                Stage::GridUpdate,
+                Stage::Solve,
                 (
                     Location::Node(self.reference.grid_index(i)),
                     Violation::NonFinite("grid velocity"),
@@ -483,7 +668,7 @@ where
         transfer::check_updates(&self.updates, |p| {
             materials[material[p] as usize].defined_for_inverted()
         })
-        .map_err(|e| Failure::Guard(Stage::G2P, e))?;
+        .map_err(Failure::guard(Stage::G2P))?;
         if let Some(a) = &mut self.adaptive {
             a.plastic_update(
                 &self.updates,
@@ -491,7 +676,7 @@ where
                 material,
                 self.particles.plastic.as_deref(),
             )
-            .map_err(|e| Failure::Guard(Stage::G2P, e))?;
+            .map_err(Failure::guard(Stage::G2P))?;
         }
         Ok(())
     }
@@ -517,7 +702,10 @@ where
                 SetupError::ParticleOutsideGrid { index, .. } => Location::Particle(index),
                 _ => Location::Global,
             };
-            Failure::Guard(Stage::G2P, (p, Violation::LeftDomain, Real::NAN))
+            Failure::Guard(
+                Stage::ReferenceUpdate,
+                (p, Violation::LeftDomain, Real::NAN),
+            )
         })?;
         ps.affine.par_iter_mut().zip(&a.rel).for_each(|(c, g)| {
             *c = Dim::<D>::inverse(g).map_or(Matrix::<D>::zeros(), |gi| *c * gi)
@@ -613,54 +801,26 @@ where
         choose_dt(&self.params.time_step, stable).map_err(|e| Failure::Guard(Stage::TimeStep, e))
     }
 
-    /// Runs `attempt` with `dt0`, halving dt after a failure as the policy allows; advances
-    /// time and the step count on success. Returns the attempt's result, the accepted dt (s) and
-    /// the number of retries.
+    /// Runs `attempt` with `dt0` (s), halving dt after a failure as the policy allows
+    /// ([`retry_halving`]); advances time and the step count on success. Returns the attempt's
+    /// result, the accepted dt (s) and the number of retries.
     pub fn run_step<T>(
         &mut self,
         dt0: Real,
         mut attempt: impl FnMut(&mut Self, Real) -> Result<T, Failure>,
     ) -> Result<(T, Real, u32), StepError> {
-        let max_retries = match self.params.on_instability {
-            OnInstability::Abort => 0,
-            OnInstability::Retry { max_retries } => max_retries,
-        };
-        let (mut dt, mut retries) = (dt0, 0);
-        loop {
-            match attempt(self, dt) {
-                Ok(v) => {
-                    self.time += dt;
-                    self.steps += 1;
-                    return Ok((v, dt, retries));
-                }
-                Err(f) if retries == max_retries => return Err(self.error(f, dt, retries)),
-                Err(_) => (dt, retries) = (0.5 * dt, retries + 1),
-            }
-        }
+        let (policy, start) = (self.params.on_instability, self.start());
+        let r = retry_halving(policy, start, dt0, |dt| attempt(self, dt))?;
+        self.time += r.1;
+        self.steps += 1;
+        Ok(r)
     }
 
-    /// The public error for a failure of the current step.
-    pub fn error(&self, failure: Failure, dt: Real, retries: u32) -> StepError {
-        match failure {
-            Failure::Guard(stage, (location, violation, value)) => {
-                StepError::Instability(Instability {
-                    step: self.steps,
-                    time: self.time,
-                    dt,
-                    stage,
-                    location,
-                    violation,
-                    value,
-                    retries,
-                })
-            }
-            Failure::Newton(source) => StepError::Newton {
-                step: self.steps,
-                time: self.time,
-                dt,
-                retries,
-                source,
-            },
+    /// The start of the current step, for error reports.
+    pub fn start(&self) -> StepStart {
+        StepStart {
+            step: self.steps,
+            time: self.time,
         }
     }
 
@@ -690,15 +850,6 @@ pub(crate) fn split_law<'a, const D: usize>(
         None => particles.def_grad.as_deref().unwrap_or(&[]),
     };
     (law, rel)
-}
-
-/// `max` that propagates NaN, so a NaN speed is noticed instead of ignored.
-fn nan_max(a: Real, b: Real) -> Real {
-    if a.is_nan() || b.is_nan() {
-        Real::NAN
-    } else {
-        a.max(b)
-    }
 }
 
 /// Checks parameters, materials and columns; returns the elastic model of every material.

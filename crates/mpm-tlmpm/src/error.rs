@@ -1,6 +1,6 @@
 //! Errors of the TLMPM solvers.
 
-use mpm_core::{Instability, Real};
+use mpm_core::Real;
 use thiserror::Error;
 
 /// Why Newton's method failed on one step.
@@ -53,28 +53,6 @@ pub enum NewtonError {
     },
 }
 
-/// Why a step failed.
-#[derive(Clone, Debug, PartialEq, Error)]
-pub enum StepError {
-    /// A guard check failed (non-finite values, J ≤ 0 where the model is undefined, a time step
-    /// below its minimum).
-    #[error(transparent)]
-    Instability(#[from] Instability),
-    /// Newton's method failed, after the retries the policy allowed.
-    #[error(
-        "step {step} (t = {time:.6e} s, dt = {dt:.3e} s, after {retries} dt/2 retries): {source}"
-    )]
-    Newton {
-        /// Step number (0-based).
-        step: u64,
-        /// Simulation time at the start of the step (s).
-        time: Real,
-        /// Time step of the failing attempt (s).
-        dt: Real,
-        /// dt/2 retries made.
-        retries: u32,
-        /// The failure.
-        #[source]
-        source: NewtonError,
-    },
-}
+/// Why a step failed: a guard check, or Newton's method after the retries the policy allowed
+/// (`StepError::Solve` with stage `solve`).
+pub type StepError = mpm_core::StepError<NewtonError>;

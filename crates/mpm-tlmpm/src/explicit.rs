@@ -1,13 +1,15 @@
 //! Explicit TLMPM: symplectic Euler on the reference grid, for comparison and cheap cases.
 
 use crate::contact::ContactStats;
-use crate::core::{split_law, timed, Core, Failure, StageTimes, TlmpmState};
+use crate::core::{split_law, step_info, Core, Failure, TlmpmState};
 use crate::error::StepError;
 use crate::params::TlmpmParams;
 use crate::potential::internal_force;
 use crate::reference::ReferenceConfig;
+use mpm_core::solver::{StageTime, StepInfo};
 use mpm_core::{
-    Diagnostics, Dim, DimOps, GridSpec, Material, Matrix, Particles, Real, SetupError, Vector,
+    Diagnostics, Dim, DimOps, GridSpec, Material, Matrix, Particles, Real, SetupError, Stage,
+    StagePlan, StageTimes, Vector,
 };
 use rayon::prelude::*;
 use std::time::Instant;
@@ -36,8 +38,7 @@ pub struct ExplicitStepInfo {
 #[derive(Clone, Debug)]
 pub struct ExplicitTlmpm<const D: usize> {
     core: Core<D>,
-    /// Accumulated stage timings.
-    pub stats: StageTimes,
+    stats: StageTimes,
     stress: Vec<Matrix<D>>,
 }
 
@@ -56,10 +57,8 @@ where
     ) -> Result<Self, SetupError> {
         let t = Instant::now();
         let core = Core::new(spec, params, materials, particles)?;
-        let stats = StageTimes {
-            reference: t.elapsed(),
-            ..StageTimes::default()
-        };
+        let mut stats = StageTimes::default();
+        stats.add(Stage::Reference, t.elapsed());
         Ok(Self {
             core,
             stats,
@@ -70,19 +69,21 @@ where
     /// Advances one step, retrying with dt/2 on a failed guard check when the policy allows;
     /// a failed step leaves the particles untouched.
     pub fn step(&mut self) -> Result<ExplicitStepInfo, StepError> {
-        let t = Instant::now();
+        let start = self.core.start();
+        let core = &self.core;
         let dt0 = self
-            .core
-            .choose_dt(true)
-            .map_err(|f| self.core.error(f, 0.0, 0))?;
-        self.stats.time_step += t.elapsed();
+            .stats
+            .time(Stage::TimeStep, || core.choose_dt(true))
+            .map_err(|f| start.error(f, 0.0, 0))?;
         let (stress, stats) = (&mut self.stress, &mut self.stats);
         let (contact, dt, retries) = self
             .core
             .run_step(dt0, |core, dt| advance(core, stress, stats, dt))?;
         let core = &mut self.core;
-        let reference_updated = timed(&mut self.stats.reference_update, || core.reference_update())
-            .map_err(|f| self.core.error(f, dt, retries))?;
+        let reference_updated = self
+            .stats
+            .time(Stage::ReferenceUpdate, || core.reference_update())
+            .map_err(|f| start.error(f, dt, retries))?;
         Ok(ExplicitStepInfo {
             dt,
             retries,
@@ -104,8 +105,16 @@ where
 
     /// The stages each step runs, in order, for this solver's parameters (only those it
     /// uses).
-    pub fn stage_plan(&self) -> Vec<String> {
-        self.core.stage_plan(false)
+    pub fn stage_plan(&self) -> StagePlan {
+        self.core.plan(
+            "internal forces (Eq. 3) and symplectic Euler node update".into(),
+            "dx / max(|v| + c)",
+        )
+    }
+
+    /// Wall time accumulated per stage.
+    pub fn stats(&self) -> &StageTimes {
+        &self.stats
     }
 
     /// The stable step bound (s) before `dt_max`, `cfl · Δx / max_p (|v_p| + c_p)` (cfl = 1
@@ -125,15 +134,15 @@ fn advance<const D: usize>(
 where
     Dim<D>: DimOps<D>,
 {
-    timed(&mut stats.p2g, || core.momentum_to_grid());
-    timed(&mut stats.external_forces, || core.external_forces());
-    let contact = timed(&mut stats.contact, || core.contact(dt));
-    timed(&mut stats.solve, || {
+    stats.time(Stage::P2G, || core.momentum_to_grid());
+    stats.time(Stage::ExternalForces, || core.external_forces());
+    let contact = stats.time(Stage::Contact, || core.contact(dt));
+    stats.time(Stage::Solve, || {
         update_grid(core, stress, dt);
         core.check_displacements()
     })?;
-    timed(&mut stats.g2p, || core.grid_to_particles(dt))?;
-    timed(&mut stats.commit, || core.commit(dt));
+    stats.time(Stage::G2P, || core.grid_to_particles(dt))?;
+    stats.time(Stage::Commit, || core.commit(dt));
     Ok(contact)
 }
 
@@ -165,4 +174,42 @@ where
         let v = grid_velocity[i] + (f + external[i]) * (dt / masses[i]);
         *u = constraints.displacement(i, v * dt, dt);
     });
+}
+
+crate::core::solver_seam!(
+    ExplicitTlmpm,
+    "explicit TLMPM (symplectic Euler)",
+    "dx / max(|v| + c)",
+    true
+);
+
+impl<const D: usize> ExplicitTlmpm<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    /// The same set-up around `particles` (a new reference configuration).
+    fn rebuild(&self, particles: Particles<D>) -> Result<Self, SetupError> {
+        Self::new(
+            *self.core.reference.spec(),
+            self.core.params.clone(),
+            self.core.materials.clone(),
+            particles,
+        )
+    }
+
+    /// [`Self::step`] for the solver seam.
+    fn seam_step(&mut self) -> Result<StepInfo, mpm_core::StepError> {
+        let info = self.step().map_err(|e| e.erase("Newton"))?;
+        Ok(step_info(
+            (info.dt, info.retries, info.time),
+            Vec::new(),
+            info.contact,
+            info.reference_updated,
+        ))
+    }
+
+    /// Stage times.
+    fn seam_stage_times(&self) -> Vec<StageTime> {
+        self.stats.rows(&self.stage_plan())
+    }
 }

@@ -4,15 +4,16 @@ use crate::assembly::HessianPattern;
 use crate::cg::{pcg, CgEnd, CgWork};
 use crate::cholesky::{CholeskyError, SparseCholesky};
 use crate::contact::ContactStats;
-use crate::core::{split_law, timed, Core, Failure, NewtonTimes, StageTimes, TlmpmState};
+use crate::core::{split_law, step_info, Core, Failure, NewtonTimes, TlmpmState};
 use crate::error::StepError;
 use crate::newton::{minimize, Indefinite, NewtonInfo, NewtonWork, Objective};
 use crate::params::{ImplicitParams, LinearSolver, TlmpmParams};
 use crate::potential::{deformation, tensor_len, Potential};
 use crate::reference::ReferenceConfig;
+use mpm_core::solver::{SolveInfo, StageTime, StepInfo};
 use mpm_core::{
     Diagnostics, Dim, DimOps, GridSpec, Location, Material, Matrix, Particles, Real, SetupError,
-    Stage, Vector, Violation,
+    Stage, StagePlan, StageTimes, Vector, Violation,
 };
 use std::time::Instant;
 
@@ -75,10 +76,9 @@ struct Workspace<const D: usize> {
 #[derive(Debug)]
 pub struct ImplicitTlmpm<const D: usize> {
     core: Core<D>,
-    /// Newton and linear-solver parameters.
-    pub implicit: ImplicitParams,
-    /// Accumulated stage timings.
-    pub stats: StageTimes,
+    implicit: ImplicitParams,
+    stats: StageTimes,
+    newton_times: NewtonTimes,
     ws: Workspace<D>,
 }
 
@@ -103,6 +103,7 @@ where
             core,
             implicit,
             stats: StageTimes::default(),
+            newton_times: NewtonTimes::default(),
             ws: Workspace::default(),
         };
         if implicit.linear == LinearSolver::Cholesky {
@@ -115,7 +116,7 @@ where
                 },
             })?;
         }
-        solver.stats.reference = t.elapsed();
+        solver.stats.add(Stage::Reference, t.elapsed());
         Ok(solver)
     }
 
@@ -142,23 +143,30 @@ where
     /// dt/2 when the policy allows it; otherwise the error names the step and what failed. A
     /// failed step leaves the particles untouched.
     pub fn step(&mut self) -> Result<ImplicitStepInfo, StepError> {
+        let start = self.core.start();
         if self.implicit.linear == LinearSolver::Cholesky {
             self.analyse()
-                .map_err(|e| self.core.error(Failure::Newton(linear_error(e)), 0.0, 0))?;
+                .map_err(|e| start.error(Failure::Solve(Stage::Solve, linear_error(e)), 0.0, 0))?;
         }
-        let t = Instant::now();
+        let core = &self.core;
         let dt0 = self
-            .core
-            .choose_dt(false)
-            .map_err(|f| self.core.error(f, 0.0, 0))?;
-        self.stats.time_step += t.elapsed();
-        let (ws, stats, implicit) = (&mut self.ws, &mut self.stats, self.implicit);
-        let ((newton, contact), dt, retries) = self
-            .core
-            .run_step(dt0, |core, dt| advance(core, ws, stats, &implicit, dt))?;
+            .stats
+            .time(Stage::TimeStep, || core.choose_dt(false))
+            .map_err(|f| start.error(f, 0.0, 0))?;
+        let (ws, stats, times, implicit) = (
+            &mut self.ws,
+            &mut self.stats,
+            &mut self.newton_times,
+            self.implicit,
+        );
+        let ((newton, contact), dt, retries) = self.core.run_step(dt0, |core, dt| {
+            advance(core, ws, stats, times, &implicit, dt)
+        })?;
         let core = &mut self.core;
-        let reference_updated = timed(&mut self.stats.reference_update, || core.reference_update())
-            .map_err(|f| self.core.error(f, dt, retries))?;
+        let reference_updated = self
+            .stats
+            .time(Stage::ReferenceUpdate, || core.reference_update())
+            .map_err(|f| start.error(f, dt, retries))?;
         if reference_updated {
             self.ws.objective.sparse = None;
         }
@@ -268,10 +276,33 @@ where
         Ok(())
     }
 
+    /// Newton and linear-solver parameters.
+    pub fn implicit_params(&self) -> &ImplicitParams {
+        &self.implicit
+    }
+
+    /// Wall time accumulated per stage.
+    pub fn stats(&self) -> &StageTimes {
+        &self.stats
+    }
+
+    /// Wall time inside Newton's method, by kind of work (part of stage `solve`).
+    pub fn newton_times(&self) -> &NewtonTimes {
+        &self.newton_times
+    }
+
     /// The stages each step runs, in order, for this solver's parameters (only those it
     /// uses).
-    pub fn stage_plan(&self) -> Vec<String> {
-        self.core.stage_plan(true)
+    pub fn stage_plan(&self) -> StagePlan {
+        let n = &self.implicit.newton;
+        self.core.plan(
+            format!(
+                "Newton on the backward-Euler incremental potential: {:?} linear solver, at most \
+                 {} iterations, rel_tol {:e}, abs_tol {:e} N, SPD projection {:?}",
+                self.implicit.linear, n.max_iterations, n.rel_tol, n.abs_tol, n.projection
+            ),
+            "dx / max|v|",
+        )
     }
 
     /// Number of unknowns of the Newton system (free scalar components, partly fixed nodes
@@ -317,20 +348,19 @@ fn advance<const D: usize>(
     core: &mut Core<D>,
     ws: &mut Workspace<D>,
     stats: &mut StageTimes,
+    times: &mut NewtonTimes,
     implicit: &ImplicitParams,
     dt: Real,
 ) -> Result<(NewtonInfo, Option<ContactStats>), Failure>
 where
     Dim<D>: DimOps<D>,
 {
-    timed(&mut stats.p2g, || core.momentum_to_grid());
-    timed(&mut stats.external_forces, || core.external_forces());
-    let contact = timed(&mut stats.contact, || core.contact(dt));
-    let newton = timed(&mut stats.solve, || {
-        solve_grid(core, ws, &mut stats.newton, implicit, dt)
-    })?;
-    timed(&mut stats.g2p, || core.grid_to_particles(dt))?;
-    timed(&mut stats.commit, || core.commit(dt));
+    stats.time(Stage::P2G, || core.momentum_to_grid());
+    stats.time(Stage::ExternalForces, || core.external_forces());
+    let contact = stats.time(Stage::Contact, || core.contact(dt));
+    let newton = stats.time(Stage::Solve, || solve_grid(core, ws, times, implicit, dt))?;
+    stats.time(Stage::G2P, || core.grid_to_particles(dt))?;
+    stats.time(Stage::Commit, || core.commit(dt));
     Ok((newton, contact))
 }
 
@@ -387,14 +417,11 @@ where
             *u = constraints.displacement(i, Vector::<D>::zeros(), dt);
         }
         if problem.energy(displacement).is_none() {
-            return Err(Failure::Guard(
-                Stage::GridUpdate,
-                problem.first_bad_particle(),
-            ));
+            return Err(Failure::Guard(Stage::Solve, problem.first_bad_particle()));
         }
     }
     let info = minimize(&mut problem, &implicit.newton, displacement, &mut ws.newton)
-        .map_err(Failure::Newton)?;
+        .map_err(|e| Failure::Solve(Stage::Solve, e))?;
     core.check_displacements()?;
     Ok(info)
 }
@@ -561,6 +588,62 @@ where
                 })
             }
         }
+    }
+}
+
+crate::core::solver_seam!(
+    ImplicitTlmpm,
+    "implicit TLMPM (backward Euler, Newton)",
+    "dx/max|v|: backward Euler has no wave-speed limit",
+    false
+);
+
+impl<const D: usize> ImplicitTlmpm<D>
+where
+    Dim<D>: DimOps<D>,
+{
+    /// The same set-up around `particles` (a new reference configuration).
+    fn rebuild(&self, particles: Particles<D>) -> Result<Self, SetupError> {
+        Self::new(
+            *self.core.reference.spec(),
+            self.core.params.clone(),
+            self.implicit,
+            self.core.materials.clone(),
+            particles,
+        )
+    }
+
+    /// [`Self::step`] for the solver seam.
+    fn seam_step(&mut self) -> Result<StepInfo, mpm_core::StepError> {
+        let info = self.step().map_err(|e| e.erase("Newton"))?;
+        let newton = SolveInfo {
+            name: "newton",
+            iterations: info.newton.iterations,
+            residual: info.newton.residuals.last().copied().unwrap_or(0.0),
+        };
+        Ok(step_info(
+            (info.dt, info.retries, info.time),
+            vec![newton],
+            info.contact,
+            info.reference_updated,
+        ))
+    }
+
+    /// Stage times, with the Newton breakdown under `solve`.
+    fn seam_stage_times(&self) -> Vec<StageTime> {
+        let mut rows = self.stats.rows(&self.stage_plan());
+        let n = &self.newton_times;
+        if let Some(solve) = rows.iter_mut().find(|r| r.stage == Stage::Solve) {
+            solve.parts = vec![
+                ("energy", n.energy.as_secs_f64()),
+                ("gradient", n.gradient.as_secs_f64()),
+                ("tangent", n.tangent.as_secs_f64()),
+                ("assembly", n.assembly.as_secs_f64()),
+                ("factorization", n.factorization.as_secs_f64()),
+                ("linear solve", n.linear_solve.as_secs_f64()),
+            ];
+        }
+        rows
     }
 }
 

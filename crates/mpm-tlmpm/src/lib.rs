@@ -22,7 +22,7 @@
 //! backtracking line search and either a sparse Cholesky or a Jacobi-preconditioned CG solve
 //! ([`LinearSolver`]).
 //!
-//! A step is a short list of named stages, each timed in [`StageTimes`]:
+//! A step is a short list of named stages, each timed in [`mpm_core::StageTimes`]:
 //! momentum to the reference grid (P2G) → external forces → contact → grid solve (Newton, or the
 //! explicit update) → G2P with the F update, plastic return mapping and guard checks → commit →
 //! reference update. Every parallel loop writes per-particle or per-node results and every sum
@@ -65,7 +65,7 @@ mod potential;
 mod reference;
 mod transfer;
 
-pub use crate::core::{NewtonTimes, StageTimes, TlmpmState};
+pub use crate::core::{build, NewtonTimes, TlmpmState, TotalLagrangian};
 pub use cholesky::{CholeskyError, SparseCholesky};
 pub use contact::{ContactInput, ContactRadius, ContactStats, Obstacle, ParticleContact};
 pub use error::{NewtonError, StepError};

@@ -314,7 +314,8 @@ fn guards_and_retries() {
     println!("{err}");
     assert!(matches!(
         err,
-        StepError::Newton {
+        StepError::Solve {
+            stage: Stage::Solve,
             source: NewtonError::NotConverged { iterations: 1, .. },
             ..
         }

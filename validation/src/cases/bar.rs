@@ -146,7 +146,7 @@ pub fn build(cfg: &BarConfig, n: usize) -> Result<ExplicitSolver<2>, RunError> {
 
 /// Centre-of-mass velocity along the bar (m/s).
 pub fn centre_of_mass_velocity(solver: &ExplicitSolver<2>) -> Real {
-    let ps = &solver.particles;
+    let ps = solver.particles();
     let (mut p, mut m) = (0.0, 0.0);
     for (v, mass) in ps.v.iter().zip(&ps.mass) {
         p += mass * v.x;
@@ -189,11 +189,11 @@ pub fn run(cfg: &BarConfig, n: usize) -> Result<Run, RunError> {
     let mut wall = Duration::ZERO;
     let mut samples = vec![(0.0, centre_of_mass_velocity(&solver))];
     let mut max_err: Real = (samples[0].1 - cfg.v_cm(0.0)).abs() / scale;
-    while solver.time < t_end {
+    while solver.time() < t_end {
         timed_step(&mut solver, &mut wall)?;
         let v = centre_of_mass_velocity(&solver);
-        max_err = nan_max(max_err, (v - cfg.v_cm(solver.time)).abs() / scale);
-        samples.push((solver.time, v));
+        max_err = nan_max(max_err, (v - cfg.v_cm(solver.time())).abs() / scale);
+        samples.push((solver.time(), v));
     }
     let crossings = zero_crossings(&samples);
     let period = period_from_crossings(&crossings).unwrap_or(Real::NAN);
@@ -207,9 +207,9 @@ pub fn run(cfg: &BarConfig, n: usize) -> Result<Run, RunError> {
     extra.insert("zero_crossings".into(), crossings.len() as Real);
     Ok(Run {
         dx: 1.0 / n as Real,
-        dt: solver.time / solver.steps as Real,
-        particles: solver.particles.len(),
-        steps: solver.steps,
+        dt: solver.time() / solver.steps() as Real,
+        particles: solver.particles().len(),
+        steps: solver.steps(),
         wall_s: wall.as_secs_f64(),
         error: max_err,
         extra,

@@ -142,7 +142,7 @@ pub fn run(cfg: &DiskConfig, n: usize) -> Result<Run, RunError> {
     let (l0, e0) = (d0.angular_momentum, d0.kinetic_energy + d0.elastic_energy);
     let mut wall = Duration::ZERO;
     let (mut drift, mut e_drift): (Real, Real) = (0.0, 0.0);
-    while solver.time < t_end {
+    while solver.time() < t_end {
         timed_step(&mut solver, &mut wall)?;
         let d = solver.diagnostics();
         drift = nan_max(drift, (d.angular_momentum - l0).norm() / l0.norm());
@@ -156,13 +156,13 @@ pub fn run(cfg: &DiskConfig, n: usize) -> Result<Run, RunError> {
         "energy_change_end".into(),
         (d.kinetic_energy + d.elastic_energy - e0) / e0,
     );
-    extra.insert("revolutions".into(), solver.time * cfg.omega / (2.0 * PI));
+    extra.insert("revolutions".into(), solver.time() * cfg.omega / (2.0 * PI));
     extra.insert("momentum_end".into(), d.momentum.norm());
     Ok(Run {
         dx: 1.0 / n as Real,
-        dt: solver.time / solver.steps as Real,
-        particles: solver.particles.len(),
-        steps: solver.steps,
+        dt: solver.time() / solver.steps() as Real,
+        particles: solver.particles().len(),
+        steps: solver.steps(),
         wall_s: wall.as_secs_f64(),
         error: drift,
         extra,

@@ -188,13 +188,13 @@ pub fn run(cfg: &HydroConfig, n: usize) -> Result<Run, RunError> {
     let (mut solver, rows) = build(cfg, n)?;
     let fluid = cfg.material();
     let mut wall = Duration::ZERO;
-    let np = solver.particles.len();
+    let np = solver.particles().len();
     let (mut r_sum, mut y_sum, mut w_sum) = (vec![0.0; np], vec![0.0; np], 0.0);
     let mut max_speed: Real = 0.0;
-    while solver.time < cfg.duration {
+    while solver.time() < cfg.duration {
         let info = timed_step(&mut solver, &mut wall)?;
-        if solver.time > 0.5 * cfg.duration {
-            let ps = &solver.particles;
+        if solver.time() > 0.5 * cfg.duration {
+            let ps = solver.particles();
             let js = ps.jacobian.as_deref().unwrap_or(&[]);
             for k in 0..np {
                 let y = ps.x[k].y;
@@ -230,9 +230,9 @@ pub fn run(cfg: &HydroConfig, n: usize) -> Result<Run, RunError> {
     extra.insert("max_speed_second_half_m_s".into(), max_speed);
     Ok(Run {
         dx,
-        dt: solver.time / solver.steps as Real,
+        dt: solver.time() / solver.steps() as Real,
         particles: np,
-        steps: solver.steps,
+        steps: solver.steps(),
         wall_s: wall.as_secs_f64(),
         error: (a / scale).abs(),
         extra,

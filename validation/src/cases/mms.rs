@@ -210,9 +210,9 @@ pub fn rms_error<const D: usize>(
 where
     Dim<D>: DimOps<D>,
 {
-    let t = solver.time;
+    let t = solver.time();
     let s = (cfg.speed() * PI * t).sin();
-    let ps = &solver.particles;
+    let ps = solver.particles();
     let (mut num, mut den) = (0.0, 0.0);
     for (p, x_ref) in reference.iter().enumerate() {
         let u = x_ref.map(|x| cfg.amplitude * (2.0 * PI * x).sin() * s);
@@ -238,7 +238,7 @@ where
         timed_step(&mut solver, &mut wall)?;
         let e = rms_error(cfg, &solver, &reference);
         if e > max_err || e.is_nan() {
-            t_max = solver.time;
+            t_max = solver.time();
         }
         max_err = nan_max(max_err, e);
     }
@@ -251,8 +251,8 @@ where
     Ok(Run {
         dx,
         dt,
-        particles: solver.particles.len(),
-        steps: solver.steps,
+        particles: solver.particles().len(),
+        steps: solver.steps(),
         wall_s: wall.as_secs_f64(),
         error: max_err,
         extra,

@@ -15,25 +15,110 @@ use std::fmt;
 /// Name of the solver configuration every case uses.
 pub const SOLVER: &str = "mpm-explicit (explicit MLS-MPM, quadratic B-spline, APIC)";
 
-/// Names of all cases, in the order they run.
-pub const CASE_NAMES: [&str; 16] = [
-    mms::NAME_2D,
-    mms::NAME_3D,
-    bar::NAME,
-    disk::NAME,
-    hydrostatic::NAME,
-    multigrid::drag_max::NAME,
-    multigrid::momentum::NAME,
-    multigrid::wall_slide::NAME,
-    multigrid::immiscible::NAME,
-    multigrid::diffusion::NAME,
-    multigrid::archimedes::NAME,
-    tlmpm::newton_convergence::NAME,
-    tlmpm::two_disks_contact::NAME,
-    tlmpm::hanging_block_extreme::NAME,
-    tlmpm::mms_1d_tlmpm::NAME,
-    tlmpm::cantilever_tip_load::NAME,
+/// A validation case: a named set-up with a known answer, run at several resolutions.
+pub trait Case: Sync {
+    /// The case's name (as given to `--case`).
+    fn name(&self) -> &'static str;
+
+    /// Runs the case in `mode`.
+    fn run(&self, mode: Mode) -> CaseResult;
+}
+
+/// A case given by its name and its run function.
+pub struct FnCase {
+    /// The case's name.
+    pub name: &'static str,
+    /// Runs it.
+    pub run: fn(Mode) -> CaseResult,
+}
+
+impl Case for FnCase {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn run(&self, mode: Mode) -> CaseResult {
+        (self.run)(mode)
+    }
+}
+
+/// Every case, in the order they run: one line per case.
+pub static REGISTRY: &[&dyn Case] = &[
+    &FnCase {
+        name: mms::NAME_2D,
+        run: mms::case::<2>,
+    },
+    &FnCase {
+        name: mms::NAME_3D,
+        run: mms::case::<3>,
+    },
+    &FnCase {
+        name: bar::NAME,
+        run: bar::case,
+    },
+    &FnCase {
+        name: disk::NAME,
+        run: disk::case,
+    },
+    &FnCase {
+        name: hydrostatic::NAME,
+        run: hydrostatic::case,
+    },
+    &FnCase {
+        name: multigrid::drag_max::NAME,
+        run: multigrid::drag_max::case,
+    },
+    &FnCase {
+        name: multigrid::momentum::NAME,
+        run: multigrid::momentum::case,
+    },
+    &FnCase {
+        name: multigrid::wall_slide::NAME,
+        run: multigrid::wall_slide::case,
+    },
+    &FnCase {
+        name: multigrid::immiscible::NAME,
+        run: multigrid::immiscible::case,
+    },
+    &FnCase {
+        name: multigrid::diffusion::NAME,
+        run: multigrid::diffusion::case,
+    },
+    &FnCase {
+        name: multigrid::archimedes::NAME,
+        run: multigrid::archimedes::case,
+    },
+    &FnCase {
+        name: tlmpm::newton_convergence::NAME,
+        run: tlmpm::newton_convergence::case,
+    },
+    &FnCase {
+        name: tlmpm::two_disks_contact::NAME,
+        run: tlmpm::two_disks_contact::case,
+    },
+    &FnCase {
+        name: tlmpm::hanging_block_extreme::NAME,
+        run: tlmpm::hanging_block_extreme::case,
+    },
+    &FnCase {
+        name: tlmpm::mms_1d_tlmpm::NAME,
+        run: tlmpm::mms_1d_tlmpm::case,
+    },
+    &FnCase {
+        name: tlmpm::cantilever_tip_load::NAME,
+        run: tlmpm::cantilever_tip_load::case,
+    },
 ];
+
+/// The names of all cases, in the order they run.
+pub fn names() -> Vec<&'static str> {
+    REGISTRY.iter().map(|c| c.name()).collect()
+}
+
+/// The case called `name`.
+pub fn find(name: &str) -> Option<&'static dyn Case> {
+    REGISTRY.iter().copied().find(|c| c.name() == name)
+}
 
 /// Why a run did not produce a result.
 #[derive(Clone, Debug)]
@@ -158,23 +243,4 @@ pub fn assemble(
         },
         notes,
     }
-}
-
-/// Runs the named case in `mode`; `None` for an unknown name.
-pub fn run_case(name: &str, mode: Mode) -> Option<CaseResult> {
-    Some(match name {
-        mms::NAME_2D => mms::case::<2>(mode),
-        mms::NAME_3D => mms::case::<3>(mode),
-        bar::NAME => bar::case(mode),
-        disk::NAME => disk::case(mode),
-        hydrostatic::NAME => hydrostatic::case(mode),
-        multigrid::drag_max::NAME => multigrid::drag_max::case(mode),
-        multigrid::momentum::NAME => multigrid::momentum::case(mode),
-        multigrid::wall_slide::NAME => multigrid::wall_slide::case(mode),
-        multigrid::immiscible::NAME => multigrid::immiscible::case(mode),
-        multigrid::diffusion::NAME => multigrid::diffusion::case(mode),
-        multigrid::archimedes::NAME => multigrid::archimedes::case(mode),
-        n if tlmpm::NAMES.contains(&n) => return tlmpm::run(n, mode),
-        _ => return None,
-    })
 }

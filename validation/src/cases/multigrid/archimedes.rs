@@ -231,10 +231,10 @@ pub fn float(cfg: &FloatConfig, n: usize, variant: Variant) -> Result<Float, Run
     let mut wall = Duration::ZERO;
     let (mut sum, mut weight) = (0.0, 0.0);
     let (mut lo, mut hi) = (Real::INFINITY, Real::NEG_INFINITY);
-    while s.time < cfg.duration {
+    while s.time() < cfg.duration {
         let info = timed_step(&mut s, &mut wall)?;
-        if s.time >= 0.75 * cfg.duration {
-            let (surface, bottom) = surface_and_bottom(cfg, &s.particles, &bottom_row, dx);
+        if s.time() >= 0.75 * cfg.duration {
+            let (surface, bottom) = surface_and_bottom(cfg, s.particles(), &bottom_row, dx);
             let d = surface - bottom;
             sum += info.dt * d;
             weight += info.dt;
@@ -242,7 +242,7 @@ pub fn float(cfg: &FloatConfig, n: usize, variant: Variant) -> Result<Float, Run
             hi = nan_max(hi, d);
         }
     }
-    let ps = &s.particles;
+    let ps = s.particles();
     let n_block = (0..ps.len()).filter(|&p| ps.material[p] == 0).count();
     let speed = mass_mean(ps, 0..n_block, |p| ps.v[p].norm());
     Ok(Float {
@@ -250,9 +250,9 @@ pub fn float(cfg: &FloatConfig, n: usize, variant: Variant) -> Result<Float, Run
         swing: hi - lo,
         block_speed: speed,
         wall,
-        steps: s.steps,
+        steps: s.steps(),
         particles: ps.len(),
-        time: s.time,
+        time: s.time(),
     })
 }
 

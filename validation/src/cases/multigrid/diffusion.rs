@@ -174,7 +174,7 @@ pub fn diffuse(
 ) -> Result<DiffusionRun, RunError> {
     let mut s = build(cfg, n, scheme)?;
     let amount = |s: &ExplicitSolver<2>| -> Real {
-        let ps = &s.particles;
+        let ps = s.particles();
         (0..ps.len())
             .map(|p| ps.volume0[p] * ps.concentration_of(p))
             .sum()
@@ -183,21 +183,21 @@ pub fn diffuse(
     let (mut drift, mut max_speed): (Real, Real) = (0.0, 0.0);
     let mut wall = Duration::ZERO;
     let duration = cfg.duration();
-    while s.time < duration {
+    while s.time() < duration {
         timed_step(&mut s, &mut wall)?;
         drift = nan_max(drift, ((amount(&s) - q0) / q0).abs());
         max_speed = s
-            .particles
+            .particles()
             .v
             .iter()
             .map(|v| v.norm())
             .fold(max_speed, nan_max);
     }
-    let ps = &s.particles;
+    let ps = s.particles();
     let norm = |inside: &dyn Fn(Real) -> bool| {
         let (mut sq, mut vol) = (0.0, 0.0);
         for p in (0..ps.len()).filter(|&p| inside(ps.x[p].x)) {
-            let e = ps.concentration_of(p) - cfg.exact(ps.x[p].x, s.time);
+            let e = ps.concentration_of(p) - cfg.exact(ps.x[p].x, s.time());
             sq += ps.volume0[p] * e * e;
             vol += ps.volume0[p];
         }
@@ -210,9 +210,9 @@ pub fn diffuse(
         drift,
         max_speed,
         wall,
-        steps: s.steps,
+        steps: s.steps(),
         particles: ps.len(),
-        time: s.time,
+        time: s.time(),
     })
 }
 

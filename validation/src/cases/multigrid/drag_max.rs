@@ -138,7 +138,7 @@ pub fn run(cfg: &DragMaxConfig, n: usize) -> Result<Run, RunError> {
         two_phases(CouplingKind::Drag(Drag::Coefficient(1e30)), None),
         true,
     )?;
-    let x0 = single.particles.x.clone();
+    let x0 = single.particles().x.clone();
     let steps = (cfg.duration / cfg.dt(1.0 / n as Real)).round() as u64;
     let mut walls = [Duration::ZERO; 3];
     let (mut dx_full, mut dx_drag, mut dv_full, mut dv_drag): (Real, Real, Real, Real) =
@@ -153,15 +153,15 @@ pub fn run(cfg: &DragMaxConfig, n: usize) -> Result<Run, RunError> {
         timed_step(&mut single, &mut walls[0])?;
         timed_step(&mut full, &mut walls[1])?;
         timed_step(&mut drag, &mut walls[2])?;
-        let (s, f, d) = (&single.particles, &full.particles, &drag.particles);
+        let (s, f, d) = (single.particles(), full.particles(), drag.particles());
         dx_full = nan_max(dx_full, diff(&s.x, &f.x));
         dx_drag = nan_max(dx_drag, diff(&s.x, &d.x));
         dv_full = nan_max(dv_full, diff(&s.v, &f.v));
         dv_drag = nan_max(dv_drag, diff(&s.v, &d.v));
     }
-    let motion = diff(&single.particles.x, &x0);
+    let motion = diff(&single.particles().x, &x0);
     let speed = single
-        .particles
+        .particles()
         .v
         .iter()
         .map(|v| v.norm())
@@ -194,9 +194,9 @@ pub fn run(cfg: &DragMaxConfig, n: usize) -> Result<Run, RunError> {
     }
     Ok(Run {
         dx: 1.0 / n as Real,
-        dt: drag.time / drag.steps as Real,
-        particles: drag.particles.len(),
-        steps: drag.steps,
+        dt: drag.time() / drag.steps() as Real,
+        particles: drag.particles().len(),
+        steps: drag.steps(),
         wall_s: walls[2].as_secs_f64(),
         error: rel.into_iter().fold(0.0, nan_max),
         extra,

@@ -222,13 +222,13 @@ pub fn separate(
     let mut wall = Duration::ZERO;
     let mut snapshots = Vec::new();
     let (mut sum, mut weight) = ([0.0; 3], 0.0);
-    while s.time < cfg.duration {
+    while s.time() < cfg.duration {
         let info = timed_step(&mut s, &mut wall)?;
-        let ps = &s.particles;
-        if snapshots.len() < SNAPSHOTS.len() && s.time >= SNAPSHOTS[snapshots.len()] {
+        let ps = s.particles();
+        if snapshots.len() < SNAPSHOTS.len() && s.time() >= SNAPSHOTS[snapshots.len()] {
             snapshots.push(measure(cfg, ps).0);
         }
-        if s.time >= (1.0 - END_WINDOW) * cfg.duration {
+        if s.time() >= (1.0 - END_WINDOW) * cfg.duration {
             let (m, sep) = measure(cfg, ps);
             let area = |k: u32| -> Real {
                 (0..ps.len())
@@ -251,8 +251,8 @@ pub fn separate(
         separation: sum[1] / weight,
         lift_cells: sum[2] / weight,
         wall,
-        steps: s.steps,
-        particles: s.particles.len(),
+        steps: s.steps(),
+        particles: s.particles().len(),
     })
 }
 
@@ -389,7 +389,7 @@ mod tests {
     fn measures_of_the_initial_and_the_separated_states() {
         let cfg = ImmiscibleConfig::default();
         let s = build(&cfg, 32, Variant::SingleGrid).unwrap();
-        let (misplaced, separation) = measure(&cfg, &s.particles);
+        let (misplaced, separation) = measure(&cfg, s.particles());
         assert!((misplaced - 0.5).abs() < 1e-12, "{misplaced}");
         assert!(separation.abs() < 1e-12, "{separation}");
         // Heavy layer below the light one: nothing misplaced, s = 1.

@@ -166,7 +166,7 @@ pub struct Drift {
 pub fn drift(n: usize, variant: &Variant) -> Result<Drift, RunError> {
     let mut s = build(n, variant)?;
     let water = |s: &ExplicitSolver<2>| -> (Real, Vector<2>) {
-        let ps = &s.particles;
+        let ps = s.particles();
         (0..ps.len())
             .filter(|&p| ps.phase_of(p) == 1)
             .fold((0.0, Vector::<2>::zeros()), |(m, q), p| {
@@ -177,14 +177,14 @@ pub fn drift(n: usize, variant: &Variant) -> Result<Drift, RunError> {
     let (m_water, q_water) = water(&s);
     let mut wall = Duration::ZERO;
     let (mut worst, mut exchanged, mut scale): (Real, Real, Real) = (0.0, 0.0, 0.0);
-    while s.time < DURATION {
+    while s.time() < DURATION {
         timed_step(&mut s, &mut wall)?;
         let d = s.diagnostics();
-        let g_t = s.params.gravity * s.time;
+        let g_t = s.params().gravity * s.time();
         worst = nan_max(worst, (d.momentum - d0.momentum - g_t * d0.mass).norm());
         let q = water(&s).1;
         exchanged = nan_max(exchanged, (q - q_water - g_t * m_water).norm());
-        let ps = &s.particles;
+        let ps = s.particles();
         let magnitude: Real = (0..ps.len()).map(|p| ps.mass[p] * ps.v[p].norm()).sum();
         scale = nan_max(scale, magnitude);
     }
@@ -192,9 +192,9 @@ pub fn drift(n: usize, variant: &Variant) -> Result<Drift, RunError> {
         drift: worst / scale,
         exchanged: exchanged / scale,
         wall,
-        steps: s.steps,
-        particles: s.particles.len(),
-        time: s.time,
+        steps: s.steps(),
+        particles: s.particles().len(),
+        time: s.time(),
     })
 }
 

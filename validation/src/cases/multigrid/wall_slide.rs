@@ -185,17 +185,17 @@ pub fn slide(
     variant: Variant,
 ) -> Result<(Real, Duration, u64, usize, Real), RunError> {
     let mut s = build(cfg, n, variant)?;
-    let film = (0..s.particles.len())
-        .position(|p| s.particles.material[p] == 1)
-        .unwrap_or(0)..s.particles.len();
+    let film = (0..s.particles().len())
+        .position(|p| s.particles().material[p] == 1)
+        .unwrap_or(0)..s.particles().len();
     let mut wall = Duration::ZERO;
-    while s.time < cfg.duration {
+    while s.time() < cfg.duration {
         timed_step(&mut s, &mut wall)?;
     }
-    let ps = &s.particles;
+    let ps = s.particles();
     let v_t = -mass_mean(ps, film, |p| ps.v[p].y);
     let (_, g_t) = cfg.components();
-    Ok((v_t / (g_t * s.time), wall, s.steps, ps.len(), s.time))
+    Ok((v_t / (g_t * s.time()), wall, s.steps(), ps.len(), s.time()))
 }
 
 /// One resolution: single grid, contact with δ = 0, contact with Coulomb δ = `cfg.friction`.

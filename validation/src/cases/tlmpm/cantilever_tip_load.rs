@@ -288,11 +288,7 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         materials.clone(),
         particles.clone(),
     )?;
-    let dt_explicit = EXPLICIT_CFL
-        * match probe {
-            Tlmpm::Explicit(s) => s.stable_dt(),
-            Tlmpm::Implicit(s) => s.stable_dt(),
-        };
+    let dt_explicit = EXPLICIT_CFL * probe.stable_dt();
     let dt = dt_explicit * factor.unwrap_or(1.0);
     let steps = (PERIODS * period() / dt - 1e-9).ceil() as u64;
     let mut s = Tlmpm::new(
@@ -303,14 +299,11 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         particles,
     )?;
     let load = Vector::<2>::new(0.0, -tip_load() / tip.len() as Real);
-    let forces = match &mut s {
-        Tlmpm::Explicit(e) => e.particle_forces_mut(),
-        Tlmpm::Implicit(i) => i.particle_forces_mut(),
-    };
+    let forces = s.particle_forces_mut();
     for &p in &tip {
         forces[p] = load;
     }
-    let x0: Vec<Vector<2>> = s.reference_positions().to_vec();
+    let x0: Vec<Vector<2>> = s.reference().positions().to_vec();
     let deflection = |s: &Tlmpm<2>| {
         let x = &s.particles().x;
         -tip.iter().map(|&p| x[p].y - x0[p].y).sum::<Real>() / tip.len() as Real
@@ -320,7 +313,11 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
     let mut newton = 0u64;
     for _ in 0..steps {
         let rep = s.step(&mut wall).map_err(|e| e.to_string())?;
-        newton += rep.newton.map_or(0, |n| u64::from(n.iterations));
+        newton += rep
+            .solves
+            .iter()
+            .map(|n| u64::from(n.iterations))
+            .sum::<u64>();
         samples.push((s.time(), deflection(&s)));
     }
     if samples.iter().any(|w| !w.1.is_finite()) {

@@ -151,17 +151,17 @@ pub fn run(dx: Real, method: Method) -> Result<Run, String> {
         };
         let mut s = ExplicitSolver::new(grid(dx), params, materials, boundaries, particles)
             .map_err(|e| format!("set-up error: {e}"))?;
-        while s.time < T_END {
+        while s.time() < T_END {
             let t = Instant::now();
             s.step().map_err(|e| e.to_string())?;
             wall += t.elapsed();
-            if s.steps % 10 == 0 || s.time >= T_END {
-                count_end = components(&s.particles.x, link);
+            if s.steps() % 10 == 0 || s.time() >= T_END {
+                count_end = components(&s.particles().x, link);
                 count_max = count_max.max(count_end);
-                stretch = stretch.max(max_stretch(s.particles.def_grad.as_ref()));
+                stretch = stretch.max(max_stretch(s.particles().def_grad.as_ref()));
             }
         }
-        (steps, time) = (s.steps, s.time);
+        (steps, time) = (s.steps(), s.time());
     } else {
         let particles = block(dx, tl_particles::<2>().columns());
         n = particles.len();

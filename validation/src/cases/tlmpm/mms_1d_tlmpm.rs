@@ -418,7 +418,7 @@ fn run_tlmpm(
         vec![neo_hookean(YOUNGS, 0.0, DENSITY)],
         particles,
     )?;
-    let x0: Vec<Vector<2>> = s.reference_positions().to_vec();
+    let x0: Vec<Vector<2>> = s.reference().positions().to_vec();
     let mass = s.particles().mass.clone();
     // Force time in steps after tⁿ: symplectic Euler at tⁿ, backward Euler at tⁿ⁺¹.
     let lag = if cfg.solver == Solver::ImplicitTlmpm {
@@ -430,10 +430,7 @@ fn run_tlmpm(
     let mut max_l2: Real = 0.0;
     for k in 0..steps {
         let t = (k as Real + lag) * dt;
-        let forces = match &mut s {
-            Tlmpm::Explicit(e) => e.particle_forces_mut(),
-            Tlmpm::Implicit(i) => i.particle_forces_mut(),
-        };
+        let forces = s.particle_forces_mut();
         for ((f, x), m) in forces.iter_mut().zip(&x0).zip(&mass) {
             f.x = m * body_force(x.x, t);
         }
@@ -521,10 +518,10 @@ fn run_mls(
         let t = Instant::now();
         s.step().map_err(|e| e.to_string())?;
         wall += t.elapsed();
-        max_l2 = max_l2.max(l2_errors(&s.particles.x, &x0, s.time).0);
+        max_l2 = max_l2.max(l2_errors(&s.particles().x, &x0, s.time()).0);
     }
     Ok(Outcome {
-        x: s.particles.x.clone(),
+        x: s.particles().x.clone(),
         x0,
         steps,
         wall,

@@ -15,55 +15,23 @@ pub mod mms_1d_tlmpm;
 pub mod newton_convergence;
 pub mod two_disks_contact;
 
-use crate::report::{progress, CaseResult, Mode, Run, Status};
+use crate::report::{progress, CaseResult, Run, Status};
 use mpm_core::{
-    Columns, Diagnostics, Dim, DimOps, GridSpec, Material, Matrix, ParticleInit, Particles, Real,
-    Vector,
+    Columns, Dim, DimOps, GridSpec, Material, Matrix, ParticleInit, Particles, Real, StepError,
+    StepInfo, Vector,
 };
-use mpm_tlmpm::{
-    ContactStats, ExplicitTlmpm, ImplicitParams, ImplicitTlmpm, NewtonInfo, StepError, TlmpmParams,
-};
+use mpm_tlmpm::{ImplicitParams, TlmpmParams, TotalLagrangian};
 use std::time::{Duration, Instant};
 
 /// Name of the implicit TLMPM configuration.
 pub const SOLVER_IMPLICIT: &str =
     "mpm-tlmpm implicit (backward Euler, Newton, sparse Cholesky; quadratic B-spline, APIC)";
 
-/// Names of the TLMPM cases, in the order they run.
-pub const NAMES: [&str; 5] = [
-    newton_convergence::NAME,
-    two_disks_contact::NAME,
-    hanging_block_extreme::NAME,
-    mms_1d_tlmpm::NAME,
-    cantilever_tip_load::NAME,
-];
-
-/// Runs the named TLMPM case in `mode`; `None` for a name not in [`NAMES`].
-pub fn run(name: &str, mode: Mode) -> Option<CaseResult> {
-    Some(match name {
-        newton_convergence::NAME => newton_convergence::case(mode),
-        two_disks_contact::NAME => two_disks_contact::case(mode),
-        hanging_block_extreme::NAME => hanging_block_extreme::case(mode),
-        mms_1d_tlmpm::NAME => mms_1d_tlmpm::case(mode),
-        cantilever_tip_load::NAME => cantilever_tip_load::case(mode),
-        _ => return None,
-    })
-}
-
-/// Either TLMPM solver, stepped and inspected the same way.
-pub enum Tlmpm<const D: usize> {
-    /// Symplectic Euler on the reference grid.
-    Explicit(Box<ExplicitTlmpm<D>>),
-    /// Backward Euler solved by Newton's method.
-    Implicit(Box<ImplicitTlmpm<D>>),
-}
-
-/// What one TLMPM step reported.
-pub struct StepReport {
-    /// Contact statistics of the step (`None` without contact).
-    pub contact: Option<ContactStats>,
-    /// The Newton solve (`None` for the explicit solver).
-    pub newton: Option<NewtonInfo>,
+/// Either TLMPM solver behind the solver seam ([`TotalLagrangian`]), with a label for reports;
+/// it dereferences to the solver.
+pub struct Tlmpm<const D: usize> {
+    solver: Box<dyn TotalLagrangian<D>>,
+    label: &'static str,
 }
 
 impl<const D: usize> Tlmpm<D>
@@ -78,90 +46,51 @@ where
         materials: Vec<Material>,
         particles: Particles<D>,
     ) -> Result<Self, String> {
-        Ok(match implicit {
-            Some(ip) => Self::Implicit(Box::new(
-                ImplicitTlmpm::new(spec, params, ip, materials, particles)
-                    .map_err(|e| format!("set-up error: {e}"))?,
-            )),
-            None => Self::Explicit(Box::new(
-                ExplicitTlmpm::new(spec, params, materials, particles)
-                    .map_err(|e| format!("set-up error: {e}"))?,
-            )),
-        })
+        let label = if implicit.is_some() {
+            "implicit"
+        } else {
+            "explicit"
+        };
+        let solver = mpm_tlmpm::build(spec, params, implicit, materials, particles)
+            .map_err(|e| format!("set-up error: {e}"))?;
+        Ok(Self { solver, label })
     }
 
     /// One step; the time spent in it is added to `wall`.
-    pub fn step(&mut self, wall: &mut Duration) -> Result<StepReport, StepError> {
+    pub fn step(&mut self, wall: &mut Duration) -> Result<StepInfo, StepError> {
         let t = Instant::now();
-        let r = match self {
-            Self::Explicit(s) => s.step().map(|i| StepReport {
-                contact: i.contact,
-                newton: None,
-            }),
-            Self::Implicit(s) => s.step().map(|i| StepReport {
-                contact: i.contact,
-                newton: Some(i.newton),
-            }),
-        };
+        let r = self.solver.step();
         *wall += t.elapsed();
         r
     }
 
-    /// Particle state.
-    pub fn particles(&self) -> &Particles<D> {
-        match self {
-            Self::Explicit(s) => s.particles(),
-            Self::Implicit(s) => s.particles(),
-        }
-    }
-
-    /// Particle velocities (m/s), writable; the next step transfers them to the grid.
-    pub fn velocities_mut(&mut self) -> &mut [Vector<D>] {
-        match self {
-            Self::Explicit(s) => s.velocities_mut(),
-            Self::Implicit(s) => s.velocities_mut(),
-        }
-    }
-
-    /// Reference positions of the particles (m).
-    pub fn reference_positions(&self) -> &[Vector<D>] {
-        match self {
-            Self::Explicit(s) => s.reference().positions(),
-            Self::Implicit(s) => s.reference().positions(),
-        }
-    }
-
-    /// Mass, momenta and energies.
-    pub fn diagnostics(&self) -> Diagnostics<D> {
-        match self {
-            Self::Explicit(s) => s.diagnostics(),
-            Self::Implicit(s) => s.diagnostics(),
-        }
-    }
-
-    /// Simulation time (s).
-    pub fn time(&self) -> Real {
-        match self {
-            Self::Explicit(s) => s.time(),
-            Self::Implicit(s) => s.time(),
-        }
-    }
-
-    /// Accepted steps.
-    pub fn steps(&self) -> u64 {
-        match self {
-            Self::Explicit(s) => s.steps(),
-            Self::Implicit(s) => s.steps(),
-        }
-    }
-
     /// `"explicit"` or `"implicit"`.
     pub fn label(&self) -> &'static str {
-        match self {
-            Self::Explicit(_) => "explicit",
-            Self::Implicit(_) => "implicit",
-        }
+        self.label
     }
+}
+
+impl<const D: usize> std::ops::Deref for Tlmpm<D> {
+    type Target = dyn TotalLagrangian<D>;
+
+    fn deref(&self) -> &Self::Target {
+        self.solver.as_ref()
+    }
+}
+
+impl<const D: usize> std::ops::DerefMut for Tlmpm<D> {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        self.solver.as_mut()
+    }
+}
+
+/// The count of event `name` in a step's events (e.g. `contact_pairs`).
+pub fn event_count(info: &StepInfo, name: &str) -> u64 {
+    info.events
+        .iter()
+        .filter(|(n, _)| *n == name)
+        .map(|(_, c)| c)
+        .sum()
 }
 
 /// Empty particle set with the deformation-gradient column (needed by TLMPM).
@@ -312,6 +241,7 @@ pub fn result(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::report::Mode;
 
     #[test]
     fn components_of_two_separated_rows() {
@@ -334,12 +264,15 @@ mod tests {
             Mode::Quick
         };
         let selected = std::env::var("TLMPM_CASES").unwrap_or_default();
-        for name in NAMES {
+        let tlmpm = crate::cases::names()
+            .into_iter()
+            .skip_while(|&n| n != newton_convergence::NAME);
+        for name in tlmpm {
             if !selected.is_empty() && !selected.split(',').any(|s| s == name) {
                 continue;
             }
             let t = Instant::now();
-            let c = run(name, mode).expect("known case");
+            let c = crate::cases::find(name).expect("known case").run(mode);
             println!(
                 "{name}: {:?} in {:.1} s, rate {:?}\n  {}",
                 c.status,

@@ -10,7 +10,7 @@
 //! - the maximum drift of the total momentum relative to `Σ m |v₀|` (exactly zero initially);
 //! - the loss of kinetic + elastic energy relative to the initial energy.
 
-use super::{add_lattice, grid_around, result, sweep_labelled, tl_particles, Tlmpm};
+use super::{add_lattice, event_count, grid_around, result, sweep_labelled, tl_particles, Tlmpm};
 use crate::cases::neo_hookean;
 use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::{Matrix, Real, TimeStepPolicy, Vector};
@@ -102,7 +102,7 @@ pub fn run(dx: Real, implicit: bool) -> Result<Run, String> {
     let mut wall = Duration::ZERO;
     while s.time() < T_END - 1e-9 {
         let rep = s.step(&mut wall).map_err(|e| e.to_string())?;
-        contacts += rep.contact.map_or(0, |c| c.pairs);
+        contacts += event_count(&rep, "contact_pairs") as usize;
         let p = s.particles();
         let momentum: Vector<2> = p.v.iter().zip(&p.mass).map(|(v, m)| v * *m).sum();
         drift = drift.max(momentum.norm() / scale);

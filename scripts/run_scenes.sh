@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Runs every scene in scenes/ with its end time cut to END (default 0.1 s; TLMPM scenes keep
+# theirs when shorter) into OUT/<scene>/, with the mpm-cli binary BIN, on THREADS threads.
+# Pair with scripts/hash_outputs.py --compare to check that a change keeps outputs bitwise.
+#   scripts/run_scenes.sh BIN OUT [END] [THREADS]
+set -euo pipefail
+bin=$1; out=$2; end=${3:-0.1}; threads=${4:-2}
+cd "$(dirname "$0")/.."
+tmp=$(mktemp -d)
+mkdir -p "$out"
+for s in scenes/*.toml; do
+  name=$(basename "$s" .toml)
+  sed -E "s/^end_time *= *[0-9.eE+-]+/end_time = $end/" "$s" > "$tmp/$name.toml"
+  # keep relative paths (meshes) resolvable
+  cp "$tmp/$name.toml" "scenes/.cmp_$name.toml"
+  start=$(date +%s.%N)
+  if "$bin" run "scenes/.cmp_$name.toml" --out "$out/$name" --threads "$threads" --quiet >/dev/null 2>"$out/$name.log"; then
+    st=ok
+  else
+    st="exit $?"
+  fi
+  rm -f "scenes/.cmp_$name.toml"
+  printf '%-40s %s %.1f s\n' "$name" "$st" "$(echo "$(date +%s.%N) - $start" | bc)"
+done
+rm -rf "$tmp"
