@@ -4,11 +4,10 @@
 use crate::build::{build, AnyBuilt, Built};
 use crate::driver::Driver;
 use crate::error::CliError;
-use crate::scene::{
-    self, Duration, Interval, LinearSolverKind, LoadedScene, ProjectionKind, Scene, TimeStepDef,
-};
+use crate::scene::{self, Duration, Interval, LinearSolverKind, LoadedScene, Scene, TimeStepDef};
 use mpm_core::{Dim, DimOps, Material};
 use mpm_explicit::{ExplicitSolver, Transfer};
+use mpm_tlmpm::SpdProjection;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -72,7 +71,7 @@ where
         let _ = writeln!(
             o,
             "phases:     {phases} grids, {} coupling(s)",
-            sc.couplings.len()
+            sc.explicit().map_or(0, |e| e.couplings.len())
         );
     }
     for (def, m) in sc.materials.iter().zip(s.materials()) {
@@ -253,10 +252,11 @@ where
 
 /// Details of the TLMPM stages in `plan`.
 fn tlmpm_details(sc: &Scene, plan: &[String], dt_text: &str) -> Vec<Option<String>> {
-    let Some(t) = &sc.tlmpm else {
+    let Some(tl) = sc.tlmpm() else {
         return vec![None; plan.len()];
     };
-    let loads: Vec<String> = sc
+    let t = &tl.tlmpm;
+    let loads: Vec<String> = tl
         .loads
         .iter()
         .map(|l| format!("\"{}\" {:?} N", l.name, l.force))
@@ -268,7 +268,7 @@ fn tlmpm_details(sc: &Scene, plan: &[String], dt_text: &str) -> Vec<Option<Strin
             st if st.starts_with("p2g") => Some(format!(
                 "{:?} transfer on the reference grid ({} fixed region(s))",
                 sc.simulation.transfer,
-                sc.fixed.len()
+                tl.fixed.len()
             )),
             st if st.starts_with("external forces") => Some(format!(
                 "gravity {:?} m/s^2{}",
@@ -290,7 +290,7 @@ fn tlmpm_details(sc: &Scene, plan: &[String], dt_text: &str) -> Vec<Option<Strin
                 t.max_iterations.unwrap_or(30),
                 t.rel_tol.unwrap_or(1e-8),
                 t.abs_tol.unwrap_or(1e-10),
-                t.spd_projection.unwrap_or(ProjectionKind::OnFailure)
+                t.spd_projection.unwrap_or(SpdProjection::OnFailure)
             )),
             st if st.starts_with("reference update") => t
                 .reference_update
