@@ -242,4 +242,49 @@ mod tests {
             assert_eq!(CliError::from(err).exit_code(), 2);
         }
     }
+
+    #[test]
+    fn parameter_errors_point_at_their_scene_keys() {
+        let scene = parse(Path::new("s.toml"), SCENE).expect("valid scene");
+        let own = scene.scene.explicit().expect("an explicit scene");
+        let line_of = |prefix: &str| {
+            SCENE
+                .lines()
+                .position(|l| l.starts_with(prefix))
+                .map_or(0, |i| i + 1)
+        };
+        // Keys the scene does not give are located at their table.
+        for (name, key, line) in [
+            ("grid.dx", "grid.dx", line_of("dx =")),
+            ("grid.size", "grid.max", line_of("max = [0.5")),
+            ("cfl", "simulation.cfl", line_of("[simulation]")),
+            (
+                "flip blend",
+                "simulation.flip_blend",
+                line_of("[simulation]"),
+            ),
+            (
+                "soft_walls.lookahead",
+                "simulation.soft_walls.lookahead",
+                line_of("[simulation]"),
+            ),
+        ] {
+            let e = SetupError::InvalidParameter {
+                name,
+                value: 0.0,
+                reason: "out of range",
+            };
+            let text = setup_error(&scene, &[], e, &error_keys(own)).to_string();
+            assert!(
+                text.starts_with(&format!("error: s.toml:{line}:")),
+                "{text}"
+            );
+            assert!(
+                text.contains(&format!(
+                    "`{key}`: invalid parameter `{name}` = 0: out of range"
+                )),
+                "{text}"
+            );
+        }
+    }
 }

@@ -205,3 +205,93 @@ where
         warnings,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::build::BodyInfo;
+    use crate::error::CliError;
+    use crate::scene::parse;
+    use mpm_core::SetupError;
+    use std::path::Path;
+
+    const SCENE: &str = "[simulation]\ndim = 2\nsolver = \"tlmpm\"\nsteps = 1\ndt = 1e-3\n\
+        gravity = [0.0, -9.81]\n\n[grid]\nmin = [0.0, 0.0]\nmax = [0.5, 0.5]\ndx = 0.05\n\n\
+        [tlmpm]\ncontact_radius = 0.02\n\n[[materials]]\nname = \"jelly\"\npreset = \"jelly\"\n\n\
+        [[bodies]]\nmaterial = \"jelly\"\nshape = \"box\"\nmin = [0.1, 0.1]\nmax = [0.2, 0.2]\n\n\
+        [[bodies]]\nmaterial = \"jelly\"\nshape = \"box\"\nmin = [0.3, 0.1]\nmax = [0.4, 0.2]\n";
+
+    /// The line of the `n`-th line of `SCENE` starting with `prefix` (1-based).
+    fn line(prefix: &str, n: usize) -> usize {
+        SCENE
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| l.starts_with(prefix))
+            .nth(n)
+            .map(|(i, _)| i + 1)
+            .unwrap_or_else(|| panic!("no line {prefix:?}"))
+    }
+
+    #[test]
+    fn set_up_errors_point_at_the_scene_keys_of_the_parameter_table() {
+        let scene = parse(Path::new("s.toml"), SCENE).expect("valid scene");
+        let body = |name: &str, particles| BodyInfo {
+            name: name.to_string(),
+            material: "jelly".to_string(),
+            particles,
+        };
+        let bodies = [body("a", 0..4), body("b", 4..8)];
+        let keys = ErrorKeys {
+            parameters: &PARAMETER_KEYS,
+            settings: Vec::new(),
+        };
+        let invalid = |name| SetupError::InvalidParameter {
+            name,
+            value: -1.0,
+            reason: "must be positive",
+        };
+        for (e, key, at) in [
+            (
+                invalid("contact.radius"),
+                "tlmpm.contact_radius",
+                line("contact_radius", 0),
+            ),
+            (invalid("gravity"), "simulation.gravity", line("gravity", 0)),
+            (invalid("dt"), "simulation.dt", line("dt =", 0)),
+            (invalid("grid.size"), "grid.max", line("max = [0.5", 0)),
+            (
+                invalid("reference_update.eta"),
+                "tlmpm.reference_update.eta",
+                line("[tlmpm]", 0),
+            ),
+            (
+                invalid("no such name"),
+                "simulation.solver",
+                line("solver", 0),
+            ),
+            (
+                SetupError::ParticleOutsideGrid {
+                    index: 5,
+                    position: "[0.9, 0.9]".to_string(),
+                },
+                "bodies[1]",
+                line("[[bodies]]", 1),
+            ),
+            (
+                SetupError::MissingColumn {
+                    material: 0,
+                    column: "F",
+                },
+                "materials",
+                line("[[materials]]", 0),
+            ),
+        ] {
+            let message = e.to_string();
+            let err = setup_error(&scene, &bodies, e, &keys);
+            let text = err.to_string();
+            assert!(text.starts_with(&format!("error: s.toml:{at}:")), "{text}");
+            assert!(text.contains(&format!("`{key}`: {message}")), "{text}");
+            assert_eq!(CliError::from(err).exit_code(), 2);
+        }
+    }
+}

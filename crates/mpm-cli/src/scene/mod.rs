@@ -36,6 +36,9 @@ pub mod output;
 pub mod simulation;
 pub mod tlmpm;
 
+#[cfg(test)]
+mod tests;
+
 pub use crate::solvers::SolverKind;
 pub use bodies::{
     BodyDef, NumberOrList, SamplingDef, SamplingKind, ShapeDef, ShapeKind, MAX_PHASES,
