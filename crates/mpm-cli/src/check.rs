@@ -68,7 +68,7 @@ where
         let _ = writeln!(
             o,
             "phases:     {phases} grids, {} coupling(s)",
-            sc.couplings.len()
+            sc.explicit().map_or(0, |e| e.couplings.len())
         );
     }
     for (def, m) in sc.materials.iter().zip(s.materials()) {

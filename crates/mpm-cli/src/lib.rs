@@ -11,6 +11,7 @@ pub mod mesh;
 pub mod render;
 pub mod run;
 pub mod scene;
+pub mod solvers;
 pub mod span;
 pub mod state;
 

@@ -45,6 +45,16 @@ impl SpanIndex {
         self.entries.iter().any(|e| e.path == path)
     }
 
+    /// The paths present in the file that match `pattern`, in which `[]` stands for any array
+    /// index: `bodies[].phase` matches `bodies[0].phase` and `bodies[3].phase`.
+    pub fn matching(&self, pattern: &str) -> Vec<String> {
+        self.entries
+            .iter()
+            .filter(|e| path_matches(pattern, &e.path))
+            .map(|e| e.path.clone())
+            .collect()
+    }
+
     /// Span of `path`, or of its nearest enclosing table or array that is present (so that a
     /// missing key is reported at the table that should hold it).
     pub fn locate(&self, path: &str) -> Option<Range<usize>> {
@@ -71,6 +81,28 @@ impl SpanIndex {
             })
             .map(|e| e.path.clone())
     }
+}
+
+/// Whether `path` matches `pattern`, in which each `[]` stands for one array index `[N]`.
+fn path_matches(pattern: &str, path: &str) -> bool {
+    let mut parts = pattern.split("[]");
+    let Some(mut rest) = parts.next().and_then(|first| path.strip_prefix(first)) else {
+        return false;
+    };
+    for part in parts {
+        let Some(index) = rest.strip_prefix('[') else {
+            return false;
+        };
+        let digits = index.len() - index.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+        let Some(after) = index[digits..].strip_prefix(']').filter(|_| digits > 0) else {
+            return false;
+        };
+        let Some(after) = after.strip_prefix(part) else {
+            return false;
+        };
+        rest = after;
+    }
+    rest.is_empty()
 }
 
 fn join(prefix: &str, key: &str) -> String {
@@ -152,5 +184,23 @@ mod tests {
             Some("materials[1].g[1]")
         );
         assert_eq!(line_text(TEXT, 2), "dim = 2");
+    }
+
+    #[test]
+    fn patterns_match_any_array_index() {
+        let idx = SpanIndex::new(TEXT);
+        assert_eq!(
+            idx.matching("materials[].name"),
+            vec!["materials[0].name", "materials[1].name"]
+        );
+        assert_eq!(idx.matching("materials[].g"), vec!["materials[1].g"]);
+        assert_eq!(idx.matching("simulation.dim"), vec!["simulation.dim"]);
+        assert!(idx.matching("materials[].nu").is_empty());
+        // `[]` is one index, never a key or nothing.
+        assert!(path_matches("a[].b", "a[12].b"));
+        assert!(!path_matches("a[].b", "a[].b"));
+        assert!(!path_matches("a[].b", "a.b"));
+        assert!(!path_matches("a[].b", "a[1].b.c"));
+        assert!(!path_matches("a", "ab"));
     }
 }

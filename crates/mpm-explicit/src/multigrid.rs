@@ -93,8 +93,9 @@ pub enum Friction {
     Proportional(Real),
 }
 
-/// When the contact force applies.
+/// When the contact force applies. Serialised in snake case (`"on_approach"`, `"always"`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Activation {
     /// Only where the phases approach each other along the normal (a collision), as in Yan et
     /// al. 2018.
@@ -142,7 +143,11 @@ pub struct Porous {
 /// Update rule of the effective volume fraction φ_eff from the previous value and the current
 /// volume fraction φ_p = Σ_i w_ip φ_i, where φ_i = 1 at nodes where the particle's phase and
 /// another phase both have mass (Eqs. 19–20).
+///
+/// Serialised as a table tagged by `phi_eff` with the rule in snake case and its parameters
+/// beside it (`phi_eff = "relax"`, `rate = 5.0`), as scenes write it.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "phi_eff", rename_all = "snake_case")]
 pub enum EffectiveFraction {
     /// φ_eff = φ (Tampubolon et al. 2017).
     Current,
@@ -191,8 +196,10 @@ pub struct Mixing {
     pub scheme: DiffusionScheme,
 }
 
-/// Discretisation of `∇²α` on the grid.
+/// Discretisation of `∇²α` on the grid. Serialised in snake case (`"kernel_gradient"`,
+/// `"mls_difference"`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum DiffusionScheme {
     /// Galerkin form with kernel gradients ∇w (Yan et al. 2018, recommended by the paper's §6):
     /// `α_i = Σ_p w_ip V_p α_p / V_i`, `∇α_p = Σ_i α_i ∇w_ip`,

@@ -1,11 +1,17 @@
-//! The scene keys of `solver = "tlmpm"` (total-Lagrangian MPM, `mpm-tlmpm`): the `[tlmpm]`
-//! table, `[[fixed]]` Dirichlet regions and `[[loads]]`, and the checks that keep the explicit
-//! solver's keys out of TLMPM scenes and the other way round.
+//! The scene module of `solver = "tlmpm"` (total-Lagrangian MPM, `mpm-tlmpm`): the tables only
+//! it reads, `[tlmpm]`, `[[fixed]]` Dirichlet regions and `[[loads]]`, and the checks of the
+//! common tables that TLMPM needs (solids only; walls and colliders that are static,
+//! frictionless penalty obstacles; no FLIP).
 
-use super::{
-    BoundaryDef, Checker, ContactName, MaterialDef, ModelDef, PlasticityDef, RawScene, Simulation,
-    SolverKind, TransferKind,
-};
+use super::bodies::BodyDef;
+use super::boundaries::BoundaryDef;
+use super::materials::{ModelDef, PlasticityDef};
+use super::simulation::TransferKind;
+use super::{Checker, Common, Scene, SolverTables};
+use crate::solvers::SolverScene;
+use mpm_core::boundary::ContactKind;
+use mpm_core::Columns;
+use mpm_tlmpm::{ReferenceUpdate, SpdProjection};
 use serde::{Deserialize, Serialize};
 
 /// Time integration of the TLMPM solver.
@@ -28,21 +34,20 @@ pub enum LinearSolverKind {
     Cg,
 }
 
-/// Positive-definiteness treatment of the Newton tangent.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ProjectionKind {
-    /// The exact tangent; an indefinite system fails the step.
-    Never,
-    /// Project every particle's elasticity tensor onto the SPD cone.
-    Always,
-    /// The exact tangent, projected only when the exact system is not positive definite.
-    OnFailure,
+/// The TLMPM solver's tables as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawTlmpmTables {
+    tlmpm: Option<RawTlmpm>,
+    #[serde(default)]
+    fixed: Vec<RawFixed>,
+    #[serde(default)]
+    loads: Vec<RawLoad>,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub(super) struct RawTlmpm {
+struct RawTlmpm {
     integrator: Option<IntegratorKind>,
     linear_solver: Option<LinearSolverKind>,
     cg_max_iterations: Option<u32>,
@@ -50,7 +55,7 @@ pub(super) struct RawTlmpm {
     max_iterations: Option<u32>,
     abs_tol: Option<f64>,
     rel_tol: Option<f64>,
-    spd_projection: Option<ProjectionKind>,
+    spd_projection: Option<SpdProjection>,
     contact: Option<bool>,
     contact_radius: Option<f64>,
     reference_update: Option<RawReferenceUpdate>,
@@ -58,14 +63,14 @@ pub(super) struct RawTlmpm {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub(super) struct RawReferenceUpdate {
+struct RawReferenceUpdate {
     epsilon: f64,
     eta: f64,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub(super) struct RawFixed {
+struct RawFixed {
     min: Vec<f64>,
     max: Vec<f64>,
     axes: Option<Vec<bool>>,
@@ -74,7 +79,7 @@ pub(super) struct RawFixed {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub(super) struct RawLoad {
+struct RawLoad {
     name: Option<String>,
     min: Vec<f64>,
     max: Vec<f64>,
@@ -106,25 +111,17 @@ pub struct TlmpmDef {
     pub rel_tol: Option<f64>,
     /// Tangent projection (implicit only).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub spd_projection: Option<ProjectionKind>,
+    pub spd_projection: Option<SpdProjection>,
     /// Particle–particle penalty contact (Eq. 4).
     pub contact: bool,
     /// Effective contact radius of every particle (m); default ½ Δx, the choice of diq-mpm
     /// §5.3. A radius of half the particle spacing lets the particles of two bodies interleave
     /// once they overlap, where the pair forces cancel.
     pub contact_radius: f64,
-    /// A-ULMPM reference updates, if on.
+    /// A-ULMPM reference updates (`[tlmpm.reference_update]`: the threshold ε on
+    /// `|det F^{(r,n)} − 1|` and the fraction η of marked particles, both dimensionless), if on.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub reference_update: Option<ReferenceUpdateDef>,
-}
-
-/// `[tlmpm.reference_update]`: the A-ULMPM trigger.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct ReferenceUpdateDef {
-    /// Threshold ε on `|det F^{(r,n)} − 1|` (dimensionless).
-    pub epsilon: f64,
-    /// Fraction η of marked particles that triggers an update (dimensionless).
-    pub eta: f64,
+    pub reference_update: Option<ReferenceUpdate>,
 }
 
 /// One `[[fixed]]` region: grid nodes whose reference position lies in the box.
@@ -153,11 +150,43 @@ pub struct LoadDef {
     pub force: Vec<f64>,
 }
 
-/// The TLMPM parts of a scene.
-pub(super) struct Resolved {
-    pub tlmpm: Option<TlmpmDef>,
+/// The TLMPM solver's own tables of a scene, resolved.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TlmpmScene {
+    /// `[tlmpm]`, every default filled in (also when the scene has no such table).
+    pub tlmpm: TlmpmDef,
+    /// `[[fixed]]`: Dirichlet regions of the reference grid.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub fixed: Vec<FixedDef>,
+    /// `[[loads]]`: constant forces on the particles.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub loads: Vec<LoadDef>,
+}
+
+impl SolverTables for TlmpmScene {
+    const TABLES: &'static [&'static str] = &["tlmpm", "fixed", "loads"];
+    const KEYS: &'static [&'static str] = &[];
+    const PRINTED_LAST: bool = true;
+    type Raw = RawTlmpmTables;
+
+    fn resolve(c: &mut Checker<'_>, raw: RawTlmpmTables, common: Common<'_>) -> Self {
+        resolve_tlmpm(c, &raw, common)
+    }
+
+    /// Those of the materials: TLMPM has one phase and no porous or mixing columns.
+    fn columns(&self, materials: Columns, _bodies: &[BodyDef]) -> Columns {
+        materials
+    }
+}
+
+impl Scene {
+    /// The TLMPM solver's tables, if the scene runs that solver.
+    pub fn tlmpm(&self) -> Option<&TlmpmScene> {
+        match &self.solver {
+            SolverScene::Tlmpm(t) => Some(t),
+            _ => None,
+        }
+    }
 }
 
 /// A box `[min, max]` of `d` components with `max > min` per axis.
@@ -176,28 +205,18 @@ fn resolve_box(c: &mut Checker<'_>, key: &str, min: &[f64], max: &[f64], d: usiz
     }
 }
 
-/// Resolves `[tlmpm]`, `[[fixed]]` and `[[loads]]`, and checks that the rest of the scene fits
-/// the chosen solver.
-pub(super) fn resolve(
-    c: &mut Checker<'_>,
-    raw: &RawScene,
-    sim: &Simulation,
-    (dx, materials): (f64, &[MaterialDef]),
-    boundaries: &[BoundaryDef],
-) -> Resolved {
-    let d = sim.dim;
-    if sim.solver != SolverKind::Tlmpm {
-        let why = "unless simulation.solver = \"tlmpm\"";
-        c.not_applicable("tlmpm", raw.tlmpm.is_some(), why);
-        c.not_applicable("fixed", !raw.fixed.is_empty(), why);
-        c.not_applicable("loads", !raw.loads.is_empty(), why);
-        return Resolved {
-            tlmpm: None,
-            fixed: Vec::new(),
-            loads: Vec::new(),
-        };
-    }
-    check_rest_of_scene(c, raw, sim, boundaries);
+/// Resolves `[tlmpm]`, `[[fixed]]` and `[[loads]]`, and checks that the common tables fit the
+/// solver.
+fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) -> TlmpmScene {
+    let Common {
+        simulation,
+        grid,
+        materials,
+        boundaries,
+        ..
+    } = common;
+    let (d, dx) = (simulation.dim, grid.dx);
+    check_common_tables(c, simulation.transfer, boundaries);
     let t = raw.tlmpm.as_ref();
     let integrator = t
         .and_then(|t| t.integrator)
@@ -285,7 +304,7 @@ pub(super) fn resolve(
     )
     .then(|| {
         t.and_then(|t| t.spd_projection)
-            .unwrap_or(ProjectionKind::OnFailure)
+            .unwrap_or(SpdProjection::OnFailure)
     });
     let contact = t.and_then(|t| t.contact).unwrap_or(true);
     if !contact && !boundaries.is_empty() {
@@ -299,17 +318,17 @@ pub(super) fn resolve(
         "tlmpm.contact_radius",
         t.and_then(|t| t.contact_radius).unwrap_or(0.5 * dx),
     );
-    let reference_update =
-        t.and_then(|t| t.reference_update.as_ref())
-            .map(|r| ReferenceUpdateDef {
-                epsilon: c.non_negative("tlmpm.reference_update.epsilon", r.epsilon),
-                eta: c.num(
-                    "tlmpm.reference_update.eta",
-                    r.eta,
-                    |x| (0.0..=1.0).contains(&x),
-                    "must lie in [0, 1]",
-                ),
-            });
+    let reference_update = t
+        .and_then(|t| t.reference_update.as_ref())
+        .map(|r| ReferenceUpdate {
+            epsilon: c.non_negative("tlmpm.reference_update.epsilon", r.epsilon),
+            eta: c.num(
+                "tlmpm.reference_update.eta",
+                r.eta,
+                |x| (0.0..=1.0).contains(&x),
+                "must lie in [0, 1]",
+            ),
+        });
     for (i, m) in materials.iter().enumerate() {
         let plastic = match m.model {
             ModelDef::NeoHookean(s)
@@ -384,8 +403,8 @@ pub(super) fn resolve(
             }
         })
         .collect();
-    Resolved {
-        tlmpm: Some(TlmpmDef {
+    TlmpmScene {
+        tlmpm: TlmpmDef {
             integrator,
             linear_solver,
             cg_max_iterations,
@@ -397,44 +416,24 @@ pub(super) fn resolve(
             contact,
             contact_radius,
             reference_update,
-        }),
+        },
         fixed,
         loads,
     }
 }
 
-/// The keys of the explicit solver that TLMPM does not use, and boundaries it cannot model:
-/// its walls and colliders are static, frictionless penalty obstacles.
-fn check_rest_of_scene(
-    c: &mut Checker<'_>,
-    raw: &RawScene,
-    sim: &Simulation,
-    boundaries: &[BoundaryDef],
-) {
-    let why = "with solver \"tlmpm\"";
-    let s = &raw.simulation;
-    for (key, present) in [
-        ("simulation.volume_update", s.volume_update.is_some()),
-        ("simulation.initial_volume", s.initial_volume.is_some()),
-        ("simulation.soft_walls", s.soft_walls.is_some()),
-        ("couplings", !raw.couplings.is_empty()),
-        ("porous", raw.porous.is_some()),
-        ("mixing", raw.mixing.is_some()),
-        ("dissolution", raw.dissolution.is_some()),
-    ] {
-        c.not_applicable(key, present, why);
-    }
-    if sim.transfer == TransferKind::Flip {
+/// The values of the common tables TLMPM cannot model: FLIP transfer, and walls and colliders
+/// that are not static, frictionless penalty obstacles. (Keys TLMPM does not read at all, such as
+/// `[[couplings]]` or `bodies[].phase`, are rejected by their owner's key list.)
+fn check_common_tables(c: &mut Checker<'_>, transfer: TransferKind, boundaries: &[BoundaryDef]) {
+    if transfer == TransferKind::Flip {
         c.err(
             "simulation.transfer",
             "solver \"tlmpm\" supports transfer = \"apic\" or \"pic\"",
         );
     }
-    for (i, b) in raw.bodies.iter().enumerate() {
-        c.not_applicable(&format!("bodies[{i}].phase"), b.phase.is_some(), why);
-    }
     for (i, b) in boundaries.iter().enumerate() {
-        if b.contact == ContactName::Sticky {
+        if b.contact == ContactKind::Sticky {
             c.err(
                 &format!("boundaries[{i}].contact"),
                 "solver \"tlmpm\" keeps bodies off walls and colliders by frictionless penalty \

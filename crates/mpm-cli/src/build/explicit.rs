@@ -1,0 +1,288 @@
+//! The build module of `solver = "explicit"`: explicit MLS-MPM (`mpm-explicit`) on one grid or
+//! several coupled ones, with its multi-grid tables, initial volumes from the grid density, and
+//! the scene keys of its set-up errors.
+
+use super::{
+    boundaries, on_instability, setup_error, time_step_policy, unused_materials, vector, Built,
+    ErrorKeys, Start,
+};
+use crate::error::SceneError;
+use crate::scene::{
+    CouplingDef, CouplingKindDef, DragDef, ExplicitScene, FrictionModel, InitialVolume,
+    LoadedScene, Scene, TransferKind,
+};
+use mpm_core::material::{Interaction, Scaling};
+use mpm_core::volume::estimate_volumes;
+use mpm_core::{Dim, DimOps};
+use mpm_explicit::{
+    BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, Dissolution, Drag, ExplicitParams,
+    ExplicitSolver, Friction, Mixing, Phases, Porous, PressureBuoyancy, Transfer,
+};
+
+/// The scene keys of the explicit solver's parameter names (`SetupError::InvalidParameter`).
+const PARAMETER_KEYS: [(&str, &str); 4] = [
+    ("grid.dx", "grid.dx"),
+    ("grid.size", "grid.max"),
+    ("flip blend", "simulation.flip_blend"),
+    ("soft_walls.lookahead", "simulation.soft_walls.lookahead"),
+];
+
+/// The scene keys of the explicit solver's set-up errors: its parameters, and its multi-grid
+/// settings (`phases`, `coupling <i>`, `porous`, `mixing`, `dissolution`).
+fn error_keys(own: &ExplicitScene) -> ErrorKeys<'static> {
+    let mut settings: Vec<(String, String)> = [
+        ("phases", "bodies"),
+        ("porous", "porous"),
+        ("mixing", "mixing"),
+        ("dissolution", "dissolution"),
+    ]
+    .into_iter()
+    .map(|(s, k)| (s.to_string(), k.to_string()))
+    .collect();
+    settings.extend(
+        (0..own.couplings.len()).map(|i| (format!("coupling {i}"), format!("couplings[{i}]"))),
+    );
+    ErrorKeys {
+        parameters: &PARAMETER_KEYS,
+        settings,
+    }
+}
+
+/// The solver parameters of the scene.
+pub fn params<const D: usize>(scene: &LoadedScene, own: &ExplicitScene) -> ExplicitParams<D> {
+    let s = &scene.scene.simulation;
+    ExplicitParams {
+        kernel: scene.scene.grid.kernel,
+        transfer: match s.transfer {
+            TransferKind::Apic => Transfer::Apic,
+            TransferKind::Pic => Transfer::Pic,
+            TransferKind::Flip => Transfer::Flip {
+                blend: s.flip_blend.unwrap_or(0.95),
+            },
+        },
+        gravity: vector::<D>(&s.gravity),
+        time_step: time_step_policy(s),
+        on_instability: on_instability(s),
+        volume: s.volume_update,
+        soft_walls: s.soft_walls,
+        body_force: None,
+        phases: Phases {
+            count: scene.scene.phase_count(),
+            couplings: own.couplings.iter().map(coupling).collect(),
+        },
+        porous: own.porous.as_ref().map(|p| Porous {
+            update: p.phi_eff,
+            interactions: p
+                .interactions
+                .iter()
+                .map(|it| Interaction {
+                    material: it.material_index as u32,
+                    parameter: it.parameter,
+                    scaling: Scaling {
+                        offset: it.offset,
+                        slope: it.slope,
+                        exponent: it.exponent,
+                    },
+                })
+                .collect(),
+        }),
+        mixing: own.mixing.as_ref().map(|m| Mixing {
+            fluids: m.fluid_indices.map(|k| k as u32),
+            diffusivity: m.diffusivity,
+            scheme: m.scheme,
+        }),
+        dissolution: own.dissolution.as_ref().map(|d| Dissolution {
+            solid: d.solid_index as u32,
+            into: d.into_index as u32,
+            fluid_phase: d.fluid_phase,
+            rate: d.rate,
+        }),
+    }
+}
+
+/// The solver's coupling between two phase grids.
+fn coupling(c: &CouplingDef) -> Coupling {
+    Coupling {
+        phases: c.phases,
+        kind: match c.kind {
+            CouplingKindDef::Full => CouplingKind::Full,
+            CouplingKindDef::Drag(DragDef::Coefficient { coefficient }) => {
+                CouplingKind::Drag(Drag::Coefficient(coefficient))
+            }
+            CouplingKindDef::Drag(DragDef::Permeability {
+                porosity,
+                conductivity,
+            }) => CouplingKind::Drag(Drag::Permeability {
+                porosity,
+                conductivity,
+            }),
+            CouplingKindDef::Contact(k) => CouplingKind::Contact(ContactCoupling {
+                normal_share: k.normal_share,
+                friction: match k.friction_model {
+                    FrictionModel::Coulomb => Friction::Coulomb(k.friction),
+                    FrictionModel::Proportional => Friction::Proportional(k.friction),
+                },
+                activation: k.apply,
+            }),
+        },
+        buoyancy: c.buoyancy.map(|strength| BuoyancyPenalty { strength }),
+        pressure_buoyancy: if c.pressure_buoyancy {
+            PressureBuoyancy::On
+        } else {
+            PressureBuoyancy::Off
+        },
+    }
+}
+
+/// A warning for each phase that no coupling joins to another: its bodies pass through the
+/// bodies of every other phase.
+fn uncoupled_phases(sc: &Scene, own: &ExplicitScene) -> Vec<String> {
+    let count = sc.phase_count();
+    if count < 2 {
+        return Vec::new();
+    }
+    (0..count)
+        .filter(|k| !own.couplings.iter().any(|c| c.phases.contains(k)))
+        .map(|k| {
+            format!(
+                "phase {k} is not coupled to any other phase ([[couplings]]): its bodies pass \
+                 through the other phases' bodies"
+            )
+        })
+        .collect()
+}
+
+/// Builds the explicit MLS-MPM solver from the sampled scene: initial volumes from the grid
+/// density if the scene asks for them, then the solver with its own validation, and the
+/// start-up warnings (unused materials, uncoupled phases).
+pub fn build<const D: usize>(
+    scene: &LoadedScene,
+    own: &ExplicitScene,
+    start: Start<D>,
+) -> Result<Built<D>, SceneError>
+where
+    Dim<D>: DimOps<D>,
+{
+    let sc = &scene.scene;
+    let Start {
+        spec,
+        materials,
+        mut particles,
+        bodies,
+    } = start;
+    if sc.simulation.initial_volume == InitialVolume::Density {
+        let v = estimate_volumes(&spec, sc.grid.kernel, &particles.x, &particles.mass);
+        if let Some(p) = v.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(scene.error(
+                "simulation.initial_volume",
+                format!("density estimation gave particle {p} the volume {}", v[p]),
+            ));
+        }
+        particles.volume0 = v;
+    }
+    let dissolved = own.dissolution.as_ref().map(|d| d.into_index);
+    let mut warnings = unused_materials(sc, &particles, dissolved);
+    warnings.extend(uncoupled_phases(sc, own));
+    let solver = ExplicitSolver::new(
+        spec,
+        params::<D>(scene, own),
+        materials,
+        boundaries::<D>(scene),
+        particles,
+    )
+    .map_err(|e| setup_error(scene, &bodies, e, &error_keys(own)))?;
+    Ok(Built {
+        solver: Box::new(solver),
+        bodies,
+        warnings,
+        notes: Vec::new(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::CliError;
+    use crate::scene::parse;
+    use mpm_core::SetupError;
+    use std::path::Path;
+
+    const SCENE: &str = "[simulation]\ndim = 2\nsteps = 1\n\n[grid]\nmin = [0.0, 0.0]\n\
+        max = [0.5, 0.5]\ndx = 0.05\n\n[[materials]]\nname = \"water\"\npreset = \"water\"\n\n\
+        [[bodies]]\nmaterial = \"water\"\nshape = \"box\"\nmin = [0.1, 0.1]\nmax = [0.2, 0.2]\n\n\
+        [[bodies]]\nmaterial = \"water\"\nphase = 1\nshape = \"box\"\nmin = [0.3, 0.1]\n\
+        max = [0.4, 0.2]\n\n[[couplings]]\nphases = [0, 1]\nkind = \"full\"\n";
+
+    #[test]
+    fn solver_settings_errors_are_bad_input_at_their_key() {
+        let scene = parse(Path::new("s.toml"), SCENE).expect("valid scene");
+        let own = scene.scene.explicit().expect("an explicit scene");
+        let line_of = |header: &str| SCENE.lines().position(|l| l == header).map(|i| i + 1);
+        for (setting, key, line) in [
+            ("coupling 0", "couplings[0]", line_of("[[couplings]]")),
+            ("mixing", "mixing", None),
+            ("phases", "bodies", line_of("[[bodies]]")),
+        ] {
+            let e = SetupError::InvalidSetting {
+                setting: setting.to_string(),
+                reason: "inconsistent".to_string(),
+            };
+            let err = setup_error(&scene, &[], e, &error_keys(own));
+            let text = err.to_string();
+            assert!(text.contains(&format!("`{key}`")), "{text}");
+            assert!(
+                text.contains(&format!("invalid {setting}: inconsistent")),
+                "{text}"
+            );
+            if let Some(line) = line {
+                assert!(text.contains(&format!("s.toml:{line}:")), "{text}");
+            }
+            assert_eq!(CliError::from(err).exit_code(), 2);
+        }
+    }
+
+    #[test]
+    fn parameter_errors_point_at_their_scene_keys() {
+        let scene = parse(Path::new("s.toml"), SCENE).expect("valid scene");
+        let own = scene.scene.explicit().expect("an explicit scene");
+        let line_of = |prefix: &str| {
+            SCENE
+                .lines()
+                .position(|l| l.starts_with(prefix))
+                .map_or(0, |i| i + 1)
+        };
+        // Keys the scene does not give are located at their table.
+        for (name, key, line) in [
+            ("grid.dx", "grid.dx", line_of("dx =")),
+            ("grid.size", "grid.max", line_of("max = [0.5")),
+            ("cfl", "simulation.cfl", line_of("[simulation]")),
+            (
+                "flip blend",
+                "simulation.flip_blend",
+                line_of("[simulation]"),
+            ),
+            (
+                "soft_walls.lookahead",
+                "simulation.soft_walls.lookahead",
+                line_of("[simulation]"),
+            ),
+        ] {
+            let e = SetupError::InvalidParameter {
+                name,
+                value: 0.0,
+                reason: "out of range",
+            };
+            let text = setup_error(&scene, &[], e, &error_keys(own)).to_string();
+            assert!(
+                text.starts_with(&format!("error: s.toml:{line}:")),
+                "{text}"
+            );
+            assert!(
+                text.contains(&format!(
+                    "`{key}`: invalid parameter `{name}` = 0: out of range"
+                )),
+                "{text}"
+            );
+        }
+    }
+}

@@ -1,0 +1,288 @@
+//! The build module of `solver = "tlmpm"`: total-Lagrangian MPM (`mpm-tlmpm`), implicit or
+//! explicit, with walls and colliders as penalty obstacles, `[[fixed]]` regions, `[[loads]]` as
+//! per-particle forces, and the scene keys of its set-up errors.
+
+use super::{
+    boundaries, fmt_vec, on_instability, setup_error, time_step_policy, unused_materials, vector,
+    Built, ErrorKeys, Start,
+};
+use crate::error::SceneError;
+use crate::scene::{
+    BoundaryGeometry, IntegratorKind, LinearSolverKind, LoadDef, LoadedScene, TlmpmDef, TlmpmScene,
+    TransferKind,
+};
+use mpm_core::{Dim, DimOps, GridSpec, Particles, Vector};
+use mpm_tlmpm::{
+    ContactParams, ContactRadius, FixedRegion, ImplicitParams, LinearSolver, NewtonParams,
+    Obstacle, SpdProjection, TlmpmParams, Transfer,
+};
+
+/// The scene keys of the TLMPM solver's parameter names (`SetupError::InvalidParameter`).
+const PARAMETER_KEYS: [(&str, &str); 12] = [
+    ("grid.dx", "grid.dx"),
+    ("grid.size", "grid.max"),
+    ("gravity", "simulation.gravity"),
+    ("contact.radius", "tlmpm.contact_radius"),
+    ("reference_update.epsilon", "tlmpm.reference_update.epsilon"),
+    ("reference_update.eta", "tlmpm.reference_update.eta"),
+    ("linear_solver", "tlmpm.linear_solver"),
+    ("material.kind", "materials"),
+    ("material.plasticity", "materials"),
+    ("particles", "bodies"),
+    ("particle.mass", "bodies"),
+    ("particle.volume0", "bodies"),
+];
+
+/// The TLMPM solver parameters of the scene: walls and colliders become penalty obstacles.
+pub fn params<const D: usize>(
+    scene: &LoadedScene,
+    own: &TlmpmScene,
+    spec: &GridSpec<D>,
+) -> TlmpmParams<D> {
+    let sc = &scene.scene;
+    let t = &own.tlmpm;
+    let walls = sc.boundaries.iter().filter_map(|b| match b.geometry {
+        BoundaryGeometry::Walls { thickness } => {
+            let inset = thickness as f64 * spec.dx;
+            Some(Obstacle::Walls {
+                min: spec.origin.add_scalar(inset),
+                max: Vector::<D>::from_fn(|a, _| {
+                    spec.origin[a] + (spec.size[a] - 1) as f64 * spec.dx - inset
+                }),
+            })
+        }
+        _ => None,
+    });
+    let obstacles: Vec<Obstacle<D>> = walls
+        .chain(
+            boundaries::<D>(scene)
+                .colliders
+                .into_iter()
+                .map(|c| Obstacle::Collider(c.shape)),
+        )
+        .collect();
+    let contact = t.contact || !obstacles.is_empty();
+    TlmpmParams {
+        kernel: sc.grid.kernel,
+        transfer: match sc.simulation.transfer {
+            TransferKind::Pic => Transfer::Pic,
+            _ => Transfer::Apic,
+        },
+        gravity: vector::<D>(&sc.simulation.gravity),
+        time_step: time_step_policy(&sc.simulation),
+        on_instability: on_instability(&sc.simulation),
+        fixed: own
+            .fixed
+            .iter()
+            .map(|f| FixedRegion {
+                min: vector::<D>(&f.min),
+                max: vector::<D>(&f.max),
+                axes: std::array::from_fn(|a| f.axes.get(a).copied().unwrap_or(true)),
+                velocity: vector::<D>(&f.velocity),
+            })
+            .collect(),
+        contact: contact.then_some(ContactParams {
+            radius: ContactRadius::Fixed(t.contact_radius),
+            obstacles,
+        }),
+        reference_update: t.reference_update,
+    }
+}
+
+/// Newton and linear-solver parameters of `[tlmpm]`.
+fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
+    let d = NewtonParams::default();
+    ImplicitParams {
+        newton: NewtonParams {
+            max_iterations: t.max_iterations.unwrap_or(d.max_iterations),
+            abs_tol: t.abs_tol.unwrap_or(d.abs_tol),
+            rel_tol: t.rel_tol.unwrap_or(d.rel_tol),
+            projection: t.spd_projection.unwrap_or(SpdProjection::OnFailure),
+            ..d
+        },
+        linear: match t.linear_solver {
+            Some(LinearSolverKind::Cg) => LinearSolver::Cg {
+                max_iterations: t.cg_max_iterations.unwrap_or(1000),
+                rel_tol: t.cg_rel_tol.unwrap_or(1e-6),
+            },
+            _ => LinearSolver::Cholesky,
+        },
+    }
+}
+
+/// The per-particle forces (N) of `[[loads]]`: each load's total force shared by the particles
+/// initially in its box, in proportion to their mass. `None` without loads.
+fn load_forces<const D: usize>(
+    scene: &LoadedScene,
+    loads: &[LoadDef],
+    particles: &Particles<D>,
+) -> Result<Option<Vec<Vector<D>>>, SceneError> {
+    if loads.is_empty() {
+        return Ok(None);
+    }
+    let mut forces = vec![Vector::<D>::zeros(); particles.len()];
+    for (i, l) in loads.iter().enumerate() {
+        let (lo, hi) = (vector::<D>(&l.min), vector::<D>(&l.max));
+        let inside = |x: &Vector<D>| (0..D).all(|a| x[a] >= lo[a] && x[a] <= hi[a]);
+        let mass: f64 = particles
+            .x
+            .iter()
+            .zip(&particles.mass)
+            .filter(|(x, _)| inside(x))
+            .map(|(_, m)| m)
+            .sum();
+        if mass <= 0.0 {
+            return Err(scene.error(
+                &format!("loads[{i}].min"),
+                format!(
+                    "load \"{}\" selects no particle: no particle lies in the box {} .. {}",
+                    l.name,
+                    fmt_vec(&l.min),
+                    fmt_vec(&l.max)
+                ),
+            ));
+        }
+        let total = vector::<D>(&l.force);
+        for ((f, x), m) in forces.iter_mut().zip(&particles.x).zip(&particles.mass) {
+            if inside(x) {
+                *f += total * (m / mass);
+            }
+        }
+    }
+    Ok(Some(forces))
+}
+
+/// Builds the implicit or explicit TLMPM solver from the sampled scene, with the `[[loads]]` as
+/// per-particle forces, and the start-up warnings (unused materials).
+pub fn build<const D: usize>(
+    scene: &LoadedScene,
+    own: &TlmpmScene,
+    start: Start<D>,
+) -> Result<Built<D>, SceneError>
+where
+    Dim<D>: DimOps<D>,
+{
+    let sc = &scene.scene;
+    let Start {
+        spec,
+        materials,
+        particles,
+        bodies,
+    } = start;
+    let warnings = unused_materials(sc, &particles, None);
+    let forces = load_forces(scene, &own.loads, &particles)?;
+    let params = params::<D>(scene, own, &spec);
+    let t = &own.tlmpm;
+    let keys = ErrorKeys {
+        parameters: &PARAMETER_KEYS,
+        settings: Vec::new(),
+    };
+    let fail = |e| setup_error(scene, &bodies, e, &keys);
+    let implicit = (t.integrator == IntegratorKind::Implicit).then(|| implicit_params(t));
+    let mut solver =
+        mpm_tlmpm::build(spec, params, implicit, materials, particles).map_err(fail)?;
+    if let Some(f) = forces {
+        solver.particle_forces_mut().copy_from_slice(&f);
+    }
+    let notes = own
+        .loads
+        .iter()
+        .map(|l| format!("load \"{}\": {:?} N", l.name, l.force))
+        .collect();
+    Ok(Built {
+        solver,
+        bodies,
+        warnings,
+        notes,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::build::BodyInfo;
+    use crate::error::CliError;
+    use crate::scene::parse;
+    use mpm_core::SetupError;
+    use std::path::Path;
+
+    const SCENE: &str = "[simulation]\ndim = 2\nsolver = \"tlmpm\"\nsteps = 1\ndt = 1e-3\n\
+        gravity = [0.0, -9.81]\n\n[grid]\nmin = [0.0, 0.0]\nmax = [0.5, 0.5]\ndx = 0.05\n\n\
+        [tlmpm]\ncontact_radius = 0.02\n\n[[materials]]\nname = \"jelly\"\npreset = \"jelly\"\n\n\
+        [[bodies]]\nmaterial = \"jelly\"\nshape = \"box\"\nmin = [0.1, 0.1]\nmax = [0.2, 0.2]\n\n\
+        [[bodies]]\nmaterial = \"jelly\"\nshape = \"box\"\nmin = [0.3, 0.1]\nmax = [0.4, 0.2]\n";
+
+    /// The line of the `n`-th line of `SCENE` starting with `prefix` (1-based).
+    fn line(prefix: &str, n: usize) -> usize {
+        SCENE
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| l.starts_with(prefix))
+            .nth(n)
+            .map(|(i, _)| i + 1)
+            .unwrap_or_else(|| panic!("no line {prefix:?}"))
+    }
+
+    #[test]
+    fn set_up_errors_point_at_the_scene_keys_of_the_parameter_table() {
+        let scene = parse(Path::new("s.toml"), SCENE).expect("valid scene");
+        let body = |name: &str, particles| BodyInfo {
+            name: name.to_string(),
+            material: "jelly".to_string(),
+            particles,
+        };
+        let bodies = [body("a", 0..4), body("b", 4..8)];
+        let keys = ErrorKeys {
+            parameters: &PARAMETER_KEYS,
+            settings: Vec::new(),
+        };
+        let invalid = |name| SetupError::InvalidParameter {
+            name,
+            value: -1.0,
+            reason: "must be positive",
+        };
+        for (e, key, at) in [
+            (
+                invalid("contact.radius"),
+                "tlmpm.contact_radius",
+                line("contact_radius", 0),
+            ),
+            (invalid("gravity"), "simulation.gravity", line("gravity", 0)),
+            (invalid("dt"), "simulation.dt", line("dt =", 0)),
+            (invalid("grid.size"), "grid.max", line("max = [0.5", 0)),
+            (
+                invalid("reference_update.eta"),
+                "tlmpm.reference_update.eta",
+                line("[tlmpm]", 0),
+            ),
+            (
+                invalid("no such name"),
+                "simulation.solver",
+                line("solver", 0),
+            ),
+            (
+                SetupError::ParticleOutsideGrid {
+                    index: 5,
+                    position: "[0.9, 0.9]".to_string(),
+                },
+                "bodies[1]",
+                line("[[bodies]]", 1),
+            ),
+            (
+                SetupError::MissingColumn {
+                    material: 0,
+                    column: "F",
+                },
+                "materials",
+                line("[[materials]]", 0),
+            ),
+        ] {
+            let message = e.to_string();
+            let err = setup_error(&scene, &bodies, e, &keys);
+            let text = err.to_string();
+            assert!(text.starts_with(&format!("error: s.toml:{at}:")), "{text}");
+            assert!(text.contains(&format!("`{key}`: {message}")), "{text}");
+            assert_eq!(CliError::from(err).exit_code(), 2);
+        }
+    }
+}

@@ -1,0 +1,215 @@
+//! The scene module of `solver = "explicit"` (MLS-MPM, `mpm-explicit`): the tables only it
+//! reads, which are the multi-grid tables of [`super::multigrid`], and the keys of the common
+//! tables only it reads: the volume options and soft walls of `[simulation]`, and the phase,
+//! initial φ_eff and concentration of `[[bodies]]`.
+
+use super::bodies::{phase_count, BodyDef, RawBody};
+use super::grid::{Grid, MAX_GRID_NODES};
+use super::multigrid::{
+    resolve_couplings, resolve_dissolution, resolve_mixing, resolve_porous, CouplingDef,
+    DissolutionDef, MixingDef, PorousDef, RawCoupling, RawDissolution, RawMixing, RawPorous,
+};
+use super::{Checker, Common, Scene, SolverTables};
+use crate::solvers::SolverScene;
+use mpm_core::{Columns, Material};
+use serde::{Deserialize, Serialize};
+
+/// The explicit solver's own tables of a scene, resolved.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ExplicitScene {
+    /// `[[couplings]]` between phase grids.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub couplings: Vec<CouplingDef>,
+    /// `[porous]`, if the scene has porous interaction.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub porous: Option<PorousDef>,
+    /// `[mixing]`, if two fluids mix.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mixing: Option<MixingDef>,
+    /// `[dissolution]`, if a solid dissolves.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dissolution: Option<DissolutionDef>,
+}
+
+/// The explicit solver's tables as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawExplicit {
+    #[serde(default)]
+    couplings: Vec<RawCoupling>,
+    porous: Option<RawPorous>,
+    mixing: Option<RawMixing>,
+    dissolution: Option<RawDissolution>,
+}
+
+impl SolverTables for ExplicitScene {
+    const TABLES: &'static [&'static str] = &["couplings", "porous", "mixing", "dissolution"];
+    const KEYS: &'static [&'static str] = &[
+        "simulation.volume_update",
+        "simulation.initial_volume",
+        "simulation.soft_walls",
+        "bodies[].phase",
+        "bodies[].initial_phi_eff",
+        "bodies[].concentration",
+    ];
+    const PRINTED_LAST: bool = false;
+    type Raw = RawExplicit;
+
+    fn resolve(c: &mut Checker<'_>, raw: RawExplicit, common: Common<'_>) -> Self {
+        let Common {
+            grid,
+            materials,
+            bodies,
+            raw_bodies,
+            ..
+        } = common;
+        let core: Vec<Material> = materials.iter().map(|m| m.model.material()).collect();
+        let phases = phase_count(bodies);
+        check_phases(c, bodies, phases, grid);
+        let couplings = resolve_couplings(c, &raw.couplings, bodies, &core, phases);
+        let porous = raw
+            .porous
+            .as_ref()
+            .map(|p| resolve_porous(c, p, materials, &core, phases));
+        let mixing = raw
+            .mixing
+            .as_ref()
+            .map(|m| resolve_mixing(c, m, materials, bodies, grid.kernel));
+        let dissolution = raw
+            .dissolution
+            .as_ref()
+            .map(|x| resolve_dissolution(c, x, materials, mixing.as_ref(), bodies, phases));
+        resolve_body_state(
+            c,
+            raw_bodies,
+            bodies,
+            porous.as_ref(),
+            mixing.as_ref(),
+            dissolution.as_ref(),
+        );
+        ExplicitScene {
+            couplings,
+            porous,
+            mixing,
+            dissolution,
+        }
+    }
+
+    /// Those of the materials, plus `phase` with more than one phase, `phi_eff` with `[porous]`
+    /// and `concentration` with `[mixing]` or `[dissolution]`.
+    fn columns(&self, materials: Columns, bodies: &[BodyDef]) -> Columns {
+        Columns {
+            phase: phase_count(bodies) > 1,
+            volume_fraction: self.porous.is_some(),
+            concentration: self.mixing.is_some() || self.dissolution.is_some(),
+            ..materials
+        }
+    }
+}
+
+impl Scene {
+    /// The explicit solver's tables, if the scene runs that solver.
+    pub fn explicit(&self) -> Option<&ExplicitScene> {
+        match &self.solver {
+            SolverScene::Explicit(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+/// Phases are numbered 0, 1, … without gaps, and all their grids fit in memory.
+fn check_phases(c: &mut Checker<'_>, bodies: &[BodyDef], phases: u32, grid: &Grid) {
+    for k in 0..phases {
+        if !bodies.iter().any(|b| b.phase == k) {
+            if let Some(i) = bodies.iter().position(|b| b.phase > k) {
+                c.err(
+                    &format!("bodies[{i}].phase"),
+                    format!("phases are numbered from 0 without gaps, but no body is in phase {k}"),
+                );
+            }
+            break;
+        }
+    }
+    if phases > 1 && grid.min.len() == grid.max.len() && grid.dx > 0.0 {
+        let nodes: f64 = grid
+            .min
+            .iter()
+            .zip(&grid.max)
+            .map(|(lo, hi)| ((hi - lo) / grid.dx).abs().ceil() + 1.0)
+            .product();
+        let total = nodes * phases as f64;
+        if total > MAX_GRID_NODES {
+            c.err(
+                "grid.dx",
+                format!(
+                    "{phases} phase grids would have {total:.3e} nodes in all (limit \
+                     {MAX_GRID_NODES:.0e}): increase dx or shrink the domain"
+                ),
+            );
+        }
+    }
+}
+
+/// The initial φ_eff and concentration of every body, where those columns exist.
+fn resolve_body_state(
+    c: &mut Checker<'_>,
+    raw: &[RawBody],
+    bodies: &mut [BodyDef],
+    porous: Option<&PorousDef>,
+    mixing: Option<&MixingDef>,
+    dissolution: Option<&DissolutionDef>,
+) {
+    for (i, (r, b)) in raw.iter().zip(bodies.iter_mut()).enumerate() {
+        let k = |name: &str| format!("bodies[{i}].{name}");
+        b.initial_phi_eff = match porous {
+            Some(p) => Some(c.num(
+                &k("initial_phi_eff"),
+                r.initial_phi_eff.unwrap_or(p.initial_phi_eff),
+                |x| (0.0..=1.0).contains(&x),
+                "must lie in [0, 1]",
+            )),
+            None => {
+                c.not_applicable(
+                    &k("initial_phi_eff"),
+                    r.initial_phi_eff.is_some(),
+                    "without a [porous] table",
+                );
+                None
+            }
+        };
+        b.concentration = match mixing {
+            Some(m) => {
+                let carrier = m.fluids.contains(&b.material)
+                    || dissolution.is_some_and(|x| x.solid == b.material);
+                if !carrier {
+                    c.not_applicable(
+                        &k("concentration"),
+                        r.concentration.is_some(),
+                        &format!(
+                            "to material \"{}\": only to the mixing fluids and the dissolving \
+                             solid",
+                            b.material
+                        ),
+                    );
+                    None
+                } else {
+                    let default = if b.material == m.fluids[1] { 1.0 } else { 0.0 };
+                    Some(c.num(
+                        &k("concentration"),
+                        r.concentration.unwrap_or(default),
+                        |x| (0.0..=1.0).contains(&x),
+                        "must lie in [0, 1]",
+                    ))
+                }
+            }
+            None => {
+                c.not_applicable(
+                    &k("concentration"),
+                    r.concentration.is_some(),
+                    "without a [mixing] table",
+                );
+                None
+            }
+        };
+    }
+}
