@@ -1,8 +1,6 @@
 //! Implicit TLMPM: backward Euler on the reference grid, solved by Newton's method.
 
-use crate::assembly::HessianPattern;
-use crate::cg::{pcg, CgEnd, CgWork};
-use crate::cholesky::{CholeskyError, SparseCholesky};
+use crate::assembly::{assemble, hessian_pattern};
 use crate::contact::ContactStats;
 use crate::core::{split_law, step_info, Core, Failure, NewtonTimes, TlmpmState};
 use crate::error::StepError;
@@ -14,6 +12,10 @@ use mpm_core::solver::{SolveInfo, StageTime, StepInfo};
 use mpm_core::{
     Diagnostics, Dim, DimOps, GridSpec, Location, Material, Matrix, Particles, Real, SetupError,
     Stage, StagePlan, StageTimes, Vector, Violation,
+};
+use mpm_linalg::{
+    conjugate_gradient, CgError, CgParams, CgWorkspace, CholeskyError, InitialGuess, Jacobi,
+    OnIterationCap, SparseCholesky, SymmetricMatrix,
 };
 use std::time::Instant;
 
@@ -35,13 +37,12 @@ pub struct ImplicitStepInfo {
     pub reference_updated: bool,
 }
 
-/// The assembled Newton system for the Cholesky solver: pattern, values, right-hand side and
-/// the factorisation whose symbolic part was computed once.
+/// The assembled Newton system for the Cholesky solver: the matrix (pattern and values), the
+/// right-hand side and the factorisation whose symbolic part was computed once.
 #[derive(Debug)]
 struct SparseSystem {
-    pattern: HessianPattern,
+    matrix: SymmetricMatrix,
     cholesky: SparseCholesky,
-    values: Vec<Real>,
     rhs: Vec<Real>,
 }
 
@@ -54,9 +55,9 @@ struct ObjectiveWork<const D: usize> {
     magnitude: Vec<Real>,
     tensors: Vec<Real>,
     sparse: Option<SparseSystem>,
-    inv_diag: Vec<Vector<D>>,
+    jacobi: Jacobi<Vector<D>>,
     rhs: Vec<Vector<D>>,
-    cg: CgWork<D>,
+    cg: CgWorkspace<Vector<D>>,
 }
 
 /// Scratch memory of the implicit solver, reused by every step.
@@ -126,14 +127,11 @@ where
         if self.ws.objective.sparse.is_some() {
             return Ok(());
         }
-        let (pattern, col_ptr, row_idx) =
-            HessianPattern::new(&self.core.reference, &self.core.constraints);
-        let n = self.core.constraints.node_of_eq.len() * D;
-        let cholesky = SparseCholesky::new(n, col_ptr, row_idx)?;
+        let pattern = hessian_pattern(&self.core.reference, &self.core.constraints)?;
+        let cholesky = SparseCholesky::new(&pattern)?;
         self.ws.objective.sparse = Some(SparseSystem {
-            values: vec![0.0; pattern.nnz()],
-            rhs: vec![0.0; n],
-            pattern,
+            rhs: vec![0.0; pattern.dim()],
+            matrix: SymmetricMatrix::new(pattern),
             cholesky,
         });
         Ok(())
@@ -238,7 +236,7 @@ where
             sparse, tensors, ..
         } = &mut self.ws.objective;
         let sys = sparse.as_mut().ok_or(CholeskyError::NotFactorized)?;
-        sys.pattern.assemble(&pot, tensors, &mut sys.values);
+        assemble(&pot, tensors, &mut sys.matrix);
         Ok(())
     }
 
@@ -247,7 +245,7 @@ where
     pub fn factorize_tangent(&mut self) -> Result<(), CholeskyError> {
         let sys = self.ws.objective.sparse.as_mut();
         let sys = sys.ok_or(CholeskyError::NotFactorized)?;
-        sys.cholesky.factorize(&sys.values)
+        sys.cholesky.factorize(&sys.matrix)
     }
 
     /// Solves `H d = −∇E` with the last factorisation (triangular solves) and returns `‖d‖₂`
@@ -256,9 +254,9 @@ where
         let sys = self.ws.objective.sparse.as_mut();
         let sys = sys.ok_or(CholeskyError::NotFactorized)?;
         let r = &self.ws.probe_residual;
-        for (e, &j) in self.core.constraints.node_of_eq.iter().enumerate() {
+        for (e, &j) in self.core.constraints.dofs.nodes().iter().enumerate() {
             for a in 0..D {
-                sys.rhs[e * D + a] = -r[j as usize][a];
+                sys.rhs[e * D + a] = -r[j][a];
             }
         }
         sys.cholesky.solve_in_place(&mut sys.rhs)?;
@@ -308,7 +306,7 @@ where
     /// Number of unknowns of the Newton system (free scalar components, partly fixed nodes
     /// counting all `D`).
     pub fn num_equations(&self) -> usize {
-        self.core.constraints.node_of_eq.len() * D
+        self.core.constraints.dofs.len() * D
     }
 
     /// The step bound (s) of the adaptive policy before `dt_max`, `cfl · Δx / max_p |v_p|`.
@@ -522,7 +520,7 @@ where
             stress,
             tensors,
             sparse,
-            inv_diag,
+            jacobi,
             rhs,
             cg,
             ..
@@ -534,10 +532,10 @@ where
                     return Err("sparse system not analysed".into());
                 };
                 let t = Instant::now();
-                sys.pattern.assemble(pot, tensors, &mut sys.values);
+                assemble(pot, tensors, &mut sys.matrix);
                 self.times.assembly += t.elapsed();
                 let t = Instant::now();
-                let factor = sys.cholesky.factorize(&sys.values);
+                let factor = sys.cholesky.factorize(&sys.matrix);
                 self.times.factorization += t.elapsed();
                 match factor {
                     Ok(()) => {}
@@ -545,18 +543,17 @@ where
                     Err(e) => return Err(e.to_string()),
                 }
                 let t = Instant::now();
-                let node_of_eq = &pot.constraints.node_of_eq;
-                for (e, &j) in node_of_eq.iter().enumerate() {
+                let nodes = pot.constraints.dofs.nodes();
+                for (e, &j) in nodes.iter().enumerate() {
                     for a in 0..D {
-                        sys.rhs[e * D + a] = -r[j as usize][a];
+                        sys.rhs[e * D + a] = -r[j][a];
                     }
                 }
                 sys.cholesky
                     .solve_in_place(&mut sys.rhs)
                     .map_err(|e| e.to_string())?;
                 d.iter_mut().for_each(|x| *x = Vector::<D>::zeros());
-                for (e, &j) in node_of_eq.iter().enumerate() {
-                    let j = j as usize;
+                for (e, &j) in nodes.iter().enumerate() {
                     let x = Vector::<D>::from_fn(|a, _| sys.rhs[e * D + a]);
                     d[j] = x.component_mul(&pot.constraints.mask[j]);
                 }
@@ -568,24 +565,32 @@ where
                 rel_tol,
             } => {
                 let t = Instant::now();
+                let inv_diag = jacobi.inverse_diagonal_mut();
                 inv_diag.resize(u.len(), Vector::<D>::zeros());
                 pot.inverse_diagonal(tensors, inv_diag);
                 rhs.clear();
                 rhs.extend(r.iter().map(|x| -x));
                 stress.resize(np, Matrix::<D>::zeros());
-                let (end, iterations) = pcg(
-                    |x, y| pot.apply_hessian(tensors, x, stress, y),
-                    inv_diag,
-                    rhs,
-                    d,
-                    (rel_tol, max_iterations),
-                    cg,
-                );
+                // Inexact Newton: a capped iterate from zero is still a descent direction.
+                let params = CgParams {
+                    max_iterations,
+                    rel_tol,
+                    abs_tol: 0.0,
+                    keep_history: false,
+                    initial_guess: InitialGuess::Zero,
+                    on_cap: OnIterationCap::Accept,
+                };
+                let mut hessian =
+                    |x: &[Vector<D>], y: &mut [Vector<D>]| pot.apply_hessian(tensors, x, stress, y);
+                let outcome = conjugate_gradient(&mut hessian, jacobi, rhs, d, &params, cg);
                 self.times.linear_solve += t.elapsed();
-                Ok(match end {
-                    CgEnd::NegativeCurvature => Err(Indefinite),
-                    CgEnd::Converged | CgEnd::IterationCap => Ok(iterations),
-                })
+                match outcome {
+                    Ok(info) => Ok(Ok(info.iterations)),
+                    Err(CgError::NegativeCurvature { .. } | CgError::NonFinite { .. }) => {
+                        Ok(Err(Indefinite))
+                    }
+                    Err(e) => Err(e.to_string()),
+                }
             }
         }
     }

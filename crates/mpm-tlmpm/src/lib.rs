@@ -5,7 +5,7 @@
 //! never cross cells: the B-spline weights `W_i(X_p)` and reference gradients `∇^X W_i(X_p)` are
 //! computed once ([`ReferenceConfig`]), together with the node masses, the node–particle
 //! connectivity, the sparsity pattern of the Newton matrix and its symbolic Cholesky
-//! factorisation ([`SparseCholesky`]).
+//! factorisation (`mpm_linalg::SparseCholesky`).
 //!
 //! The internal force is Eq. 3, `f_i = −Σ_p V⁰_p P(F_p) ∇^X W_i(X_p)`. The deformation gradient
 //! is updated in incremental form, `F_p^{n+1} = F_p^n + Σ_i u_i ⊗ ∇^X W_i(X_p)` with the node
@@ -20,7 +20,7 @@
 //! (the brief's `E(x)` with `x_i = x_i^n + u_i`) has an exact, consistent Hessian built from
 //! mpm-core's `dP(F)[δF]`; Newton's method ([`NewtonParams`]) minimises it with a capped
 //! backtracking line search and either a sparse Cholesky or a Jacobi-preconditioned CG solve
-//! ([`LinearSolver`]).
+//! ([`LinearSolver`]), both from mpm-linalg.
 //!
 //! A step is a short list of named stages, each timed in [`mpm_core::StageTimes`]:
 //! momentum to the reference grid (P2G) → external forces → contact → grid solve (Newton, or the
@@ -51,26 +51,23 @@
 
 mod adaptive;
 mod assembly;
-mod cg;
-mod cholesky;
 mod contact;
 mod core;
 mod error;
 mod explicit;
 mod implicit;
 mod newton;
-mod par;
 mod params;
 mod potential;
 mod reference;
 mod transfer;
 
 pub use crate::core::{build, NewtonTimes, TlmpmState, TotalLagrangian};
-pub use cholesky::{CholeskyError, SparseCholesky};
 pub use contact::{ContactInput, ContactRadius, ContactStats, Obstacle, ParticleContact};
 pub use error::{NewtonError, StepError};
 pub use explicit::{ExplicitStepInfo, ExplicitTlmpm};
 pub use implicit::{ImplicitStepInfo, ImplicitTlmpm};
+pub use mpm_linalg::CholeskyError;
 pub use newton::{fitted_order, NewtonInfo};
 pub use params::{
     ContactParams, FixedRegion, ImplicitParams, LineSearch, LinearSolver, NewtonParams,

@@ -12,9 +12,10 @@
 
 use crate::params::FixedRegion;
 use mpm_core::{GridSpec, Kernel, Real, SetupError, Stencil, Vector};
+use mpm_linalg::DofMap;
 use rayon::prelude::*;
 
-/// Marks a stencil slot without an active node, or a node without equations.
+/// Marks a stencil slot without an active node.
 pub(crate) const NONE: u32 = u32::MAX;
 
 /// Cached reference-configuration data of one TLMPM body set.
@@ -242,10 +243,9 @@ pub(crate) struct Constraints<const D: usize> {
     pub mask: Vec<Vector<D>>,
     /// Per node: prescribed velocity (m/s) of the fixed components, 0 elsewhere.
     pub velocity: Vec<Vector<D>>,
-    /// Equation-node index of each active node, `NONE` when every component is fixed.
-    pub eq_of_node: Vec<u32>,
-    /// Active node of each equation node.
-    pub node_of_eq: Vec<u32>,
+    /// The equation nodes: active nodes with at least one free component, numbered in node
+    /// order.
+    pub dofs: DofMap,
 }
 
 impl<const D: usize> Constraints<D> {
@@ -265,19 +265,11 @@ impl<const D: usize> Constraints<D> {
                 }
             }
         }
-        let mut eq_of_node = vec![NONE; n];
-        let mut node_of_eq = Vec::new();
-        for i in 0..n {
-            if mask[i].iter().any(|&m| m > 0.0) {
-                eq_of_node[i] = node_of_eq.len() as u32;
-                node_of_eq.push(i as u32);
-            }
-        }
+        let dofs = DofMap::from_predicate(n, |i| mask[i].iter().any(|&m| m > 0.0));
         Self {
             mask,
             velocity,
-            eq_of_node,
-            node_of_eq,
+            dofs,
         }
     }
 
@@ -376,6 +368,6 @@ mod tests {
             .map(|m| m.iter().filter(|&&x| x == 0.0).count())
             .sum();
         assert_eq!(fixed, 14 + 28);
-        assert_eq!(c.node_of_eq.len(), 35);
+        assert_eq!(c.dofs.len(), 35);
     }
 }

@@ -1,13 +1,14 @@
 //! White-box checks of the incremental potential, its assembled tangent and the linear solvers.
 
-use crate::assembly::{symmetric_product, HessianPattern};
-use crate::cg::{pcg, CgEnd, CgWork};
-use crate::cholesky::SparseCholesky;
+use crate::assembly::{assemble, hessian_pattern};
 use crate::params::FixedRegion;
 use crate::potential::{deformation, tensor_len, Constitutive, Potential};
 use crate::reference::{Constraints, ReferenceConfig};
 use mpm_core::material::{ElasticModel, Lame};
 use mpm_core::{Dim, DimOps, GridSpec, Kernel, Matrix, Real, Vector};
+use mpm_linalg::{
+    conjugate_gradient, CgParams, CgStop, CgWorkspace, Jacobi, SparseCholesky, SymmetricMatrix,
+};
 
 /// Deterministic numbers in [−1, 1).
 struct Lcg(u64);
@@ -173,10 +174,10 @@ where
     }
 
     fn to_equations(&self, v: &[Vector<D>]) -> Vec<Real> {
-        let mut out = vec![0.0; self.constraints.node_of_eq.len() * D];
-        for (e, &j) in self.constraints.node_of_eq.iter().enumerate() {
+        let mut out = vec![0.0; self.constraints.dofs.len() * D];
+        for (e, &j) in self.constraints.dofs.nodes().iter().enumerate() {
             for a in 0..D {
-                out[e * D + a] = v[j as usize][a] * self.constraints.mask[j as usize][a];
+                out[e * D + a] = v[j][a] * self.constraints.mask[j][a];
             }
         }
         out
@@ -222,9 +223,9 @@ where
     let pot = fx.potential();
     let g = fx.gradient(&u);
     let tensors = fx.tensors(&u, false);
-    let (pattern, col_ptr, row_idx) = HessianPattern::new(&fx.reference, &fx.constraints);
-    let mut values = vec![0.0; pattern.nnz()];
-    pattern.assemble(&pot, &tensors, &mut values);
+    let pattern = hessian_pattern(&fx.reference, &fx.constraints).unwrap();
+    let mut matrix = SymmetricMatrix::new(pattern);
+    assemble(&pot, &tensors, &mut matrix);
     let mut errors = [0.0f64; 3];
     for _ in 0..3 {
         let d = fx.direction(&mut rng);
@@ -243,7 +244,8 @@ where
             .map(|(a, b)| (a - b) / (2.0 * h))
             .collect();
         let fd_eq = fx.to_equations(&fd);
-        let hd = symmetric_product(&col_ptr, &row_idx, &values, &fx.to_equations(&d));
+        let mut hd = vec![0.0; fd_eq.len()];
+        matrix.mul_vec(&fx.to_equations(&d), &mut hd);
         let norm = fd_eq.iter().map(|x| x * x).sum::<Real>().sqrt();
         let err = hd
             .iter()
@@ -356,24 +358,24 @@ where
     let model = ElasticModel::NeoHookean(Lame::from_young_poisson(1e5, 0.3));
     let fx = Fixture::<D>::new(model, Kernel::Quadratic, &mut rng);
     let pot = fx.potential();
-    let (pattern, col_ptr, row_idx) = HessianPattern::new(&fx.reference, &fx.constraints);
-    let n = fx.constraints.node_of_eq.len() * D;
+    let pattern = hessian_pattern(&fx.reference, &fx.constraints).unwrap();
+    let n = fx.constraints.dofs.len() * D;
     // Analyse once and factorise an earlier state first, as Newton does.
-    let mut reused = SparseCholesky::new(n, col_ptr.clone(), row_idx.clone()).unwrap();
-    let mut values = vec![0.0; pattern.nnz()];
+    let mut reused = SparseCholesky::new(&pattern).unwrap();
+    let mut matrix = SymmetricMatrix::new(pattern);
     let u0 = fx.state(&mut rng, 0.0);
-    pattern.assemble(&pot, &fx.tensors(&u0, false), &mut values);
-    reused.factorize(&values).unwrap();
+    assemble(&pot, &fx.tensors(&u0, false), &mut matrix);
+    reused.factorize(&matrix).unwrap();
     // The state of interest.
     let u1 = fx.state(&mut rng, 0.005);
     let tensors = fx.tensors(&u1, false);
-    pattern.assemble(&pot, &tensors, &mut values);
+    assemble(&pot, &tensors, &mut matrix);
     let b = fx.to_equations(&fx.gradient(&u1));
-    reused.factorize(&values).unwrap();
+    reused.factorize(&matrix).unwrap();
     let mut x_reused = b.clone();
     reused.solve_in_place(&mut x_reused).unwrap();
-    let mut fresh = SparseCholesky::new(n, col_ptr.clone(), row_idx.clone()).unwrap();
-    fresh.factorize(&values).unwrap();
+    let mut fresh = SparseCholesky::new(matrix.pattern()).unwrap();
+    fresh.factorize(&matrix).unwrap();
     let mut x_fresh = b.clone();
     fresh.solve_in_place(&mut x_fresh).unwrap();
     let norm = x_fresh.iter().map(|x| x * x).sum::<Real>().sqrt();
@@ -389,15 +391,22 @@ where
     pot.inverse_diagonal(&tensors, &mut inv_diag);
     let rhs = fx.gradient(&u1);
     let mut x_cg = vec![Vector::<D>::zeros(); u1.len()];
-    let (end, iterations) = pcg(
-        |x, y| pot.apply_hessian(&tensors, x, &mut scratch, y),
-        &inv_diag,
+    let params = CgParams {
+        max_iterations: 5000,
+        rel_tol: 1e-13,
+        ..CgParams::default()
+    };
+    let info = conjugate_gradient(
+        &mut |x: &[Vector<D>], y: &mut [Vector<D>]| pot.apply_hessian(&tensors, x, &mut scratch, y),
+        &mut Jacobi::from_inverse_diagonal(inv_diag),
         &rhs,
         &mut x_cg,
-        (1e-13, 5000),
-        &mut CgWork::default(),
-    );
-    assert_eq!(end, CgEnd::Converged);
+        &params,
+        &mut CgWorkspace::new(),
+    )
+    .unwrap();
+    let iterations = info.iterations;
+    assert_eq!(info.stop, CgStop::Converged);
     let x_cg = fx.to_equations(&x_cg);
     let diff_cg = x_cg
         .iter()
@@ -405,7 +414,9 @@ where
         .map(|(a, b)| (a - b).powi(2))
         .sum::<Real>()
         .sqrt();
-    let residual = symmetric_product(&col_ptr, &row_idx, &values, &x_reused)
+    let mut ax = vec![0.0; n];
+    matrix.mul_vec(&x_reused, &mut ax);
+    let residual = ax
         .iter()
         .zip(&b)
         .map(|(a, b)| (a - b).powi(2))

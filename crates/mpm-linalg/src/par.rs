@@ -1,4 +1,4 @@
-//! Deterministic parallel helpers.
+//! Deterministic parallel helpers (disjoint segments written by one task each).
 
 /// Segments handled serially below this count.
 const GRAIN: usize = 64;
