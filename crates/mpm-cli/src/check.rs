@@ -71,7 +71,7 @@ where
             sc.explicit().map_or(0, |e| e.couplings.len())
         );
     }
-    for (def, m) in sc.materials.iter().zip(s.materials()) {
+    for (k, (def, m)) in sc.materials.iter().zip(s.materials()).enumerate() {
         let detail = match m {
             Material::Solid(solid) => {
                 let l = solid.elastic.lame();
@@ -84,7 +84,7 @@ where
             }
             Material::Fluid(f) => format!("fluid, sound speed {:.4} m/s", f.sound_speed(1.0)),
         };
-        let _ = writeln!(o, "material:   \"{}\": {detail}", def.name);
+        let _ = writeln!(o, "material {k}: \"{}\": {detail}", def.name);
     }
     let columns = s.particles().columns();
     let _ = writeln!(o, "columns:    {}", columns.names().join(", "));

@@ -201,9 +201,11 @@ fn check_info_and_render() {
         "plasticity = \"snow\"",
         "theta_c = 0.025",
         "columns:    x, v, mass, volume0, material, affine, F, plastic",
-        "g2p — velocity, affine C, F or J update, advection; plasticity: return mapping for snow",
-        "boundaries — domain walls",
-        "p2g (1 grid(s)) — APIC transfer",
+        "material 0: \"snow\": solid",
+        "g2p — velocity, affine C, F or J update, advection; plasticity: return mapping for \
+         material(s) 0",
+        "grid_update — velocities, gravity [0.0, -9.81] m/s^2; boundaries: domain walls",
+        "p2g — 1 grid(s), APIC transfer",
     ] {
         assert!(
             text.contains(needle),
