@@ -1,6 +1,7 @@
 //! Core types of the `mpm` workspace: maths, interpolation kernels, grids, particles,
 //! constitutive models, plasticity, boundaries, sampling, time-step control, guard checks and
-//! diagnostics. Solvers (`mpm-explicit`, `mpm-tlmpm`, `mpm-diq`) build on these.
+//! diagnostics, and the solvers' shared building blocks: the deterministic block scatter
+//! (`scatter`). Solvers (`mpm-explicit`, `mpm-tlmpm`, `mpm-diq`) build on these.
 //!
 //! Units are SI throughout (m, s, kg, Pa); in 2D "volume" means area (m²) and densities are per
 //! unit area (kg/m²).
@@ -13,6 +14,7 @@ pub mod material;
 pub mod math;
 pub mod particles;
 pub mod sampling;
+pub mod scatter;
 
 pub use error::{Instability, Location, SetupError, Stage, Violation};
 pub use grid::{GridNodes, GridSpec};
