@@ -1,6 +1,8 @@
 //! Core types of the `mpm` workspace: maths, interpolation kernels, grids, particles,
 //! constitutive models, plasticity, boundaries, sampling, time-step control, guard checks and
-//! diagnostics. Solvers (`mpm-explicit`, `mpm-tlmpm`, `mpm-diq`) build on these.
+//! diagnostics, and the solvers' shared building blocks: the deterministic block scatter
+//! (`scatter`) and the cell-list neighbour search (`neighbors`). Solvers (`mpm-explicit`,
+//! `mpm-tlmpm`, `mpm-diq`) build on these.
 //!
 //! Units are SI throughout (m, s, kg, Pa); in 2D "volume" means area (m²) and densities are per
 //! unit area (kg/m²).
@@ -12,8 +14,10 @@ pub mod grid;
 pub mod kernel;
 pub mod material;
 pub mod math;
+pub mod neighbors;
 pub mod particles;
 pub mod sampling;
+pub mod scatter;
 pub mod solver;
 
 pub use error::{Instability, Location, SetupError, Stage, Violation};

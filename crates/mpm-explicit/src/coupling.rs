@@ -73,11 +73,11 @@ pub(crate) fn scatter_geometry<const D: usize>(
     let minv = kernel.mls_inertia_inv(spec.dx);
     let sums = Sums {
         mass: &mut out.rest,
-        momentum: &mut out.normal,
+        momentum: Some(&mut out.normal),
         momentum0: pressure.then_some(&mut out.pressure),
         extra: None,
     };
-    blocks.scatter(spec, kernel, sums, |p, buf| {
+    blocks.scatter(sums, |p, window, (rest_i, normal, pressure_force, _)| {
         let (xp, m) = (particles.x[p], particles.mass[p]);
         let material = materials.get(particles, p);
         let rest = m * material.density();
@@ -90,11 +90,11 @@ pub(crate) fn scatter_geometry<const D: usize>(
         };
         Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
             let d = spec.node_position(&node) - xp;
-            let k = buf.local(&node);
-            buf.mass[k] += w * rest;
-            buf.momentum[k] += d * (w * m);
+            let k = window.local(&node);
+            rest_i[k] += w * rest;
+            normal[k] += d * (w * m);
             if pressure {
-                buf.momentum0[k] += mls_gradient(minv, w, &grad, &d) * pv;
+                pressure_force[k] += mls_gradient(minv, w, &grad, &d) * pv;
             }
         });
     });

@@ -62,23 +62,23 @@ pub(crate) fn diffuse<const D: usize>(
     } = work;
     let sums = Sums {
         mass: volume,
-        momentum: moment,
+        momentum: mls.then_some(&mut *moment),
         momentum0: mls.then_some(spread),
         extra: Some(amount),
     };
-    blocks.scatter(spec, kernel, sums, |p, buf| {
+    blocks.scatter(sums, |p, window, (vol, mom, spr, amt)| {
         if !mixes(p) {
             return;
         }
         let (xp, v, a) = (particles.x[p], particles.volume0[p], alpha(p));
         Stencil::new(kernel, spec, &xp).for_each(|node, w, _| {
-            let k = buf.local(&node);
-            buf.mass[k] += w * v;
-            buf.extra[k] += w * v * a;
+            let k = window.local(&node);
+            vol[k] += w * v;
+            amt[k] += w * v * a;
             if mls {
                 let d = xp - spec.node_position(&node);
-                buf.momentum[k] += d * (w * v * a);
-                buf.momentum0[k] += d * (w * v);
+                mom[k] += d * (w * v * a);
+                spr[k] += d * (w * v);
             }
         });
     });
@@ -146,19 +146,19 @@ pub(crate) fn diffuse<const D: usize>(
             let grad_p = &*gradient;
             let sums = Sums {
                 mass: volume,
-                momentum: moment,
+                momentum: None,
                 momentum0: None,
                 extra: Some(amount),
             };
-            blocks.scatter(spec, kernel, sums, |p, buf| {
+            blocks.scatter(sums, |p, window, (vol, _, _, rate)| {
                 if !mixes(p) {
                     return;
                 }
                 let (xp, v) = (particles.x[p], particles.volume0[p]);
                 Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
-                    let k = buf.local(&node);
-                    buf.mass[k] += w * v;
-                    buf.extra[k] -= k_d * v * grad.dot(&grad_p[p]);
+                    let k = window.local(&node);
+                    vol[k] += w * v;
+                    rate[k] -= k_d * v * grad.dot(&grad_p[p]);
                 });
             });
             let (rate, volume) = (&*amount, &*volume);

@@ -75,11 +75,11 @@ pub(crate) fn p2g<const D: usize>(
     grid.velocity.resize(spec.num_nodes(), Vector::<D>::zeros());
     let out = Sums {
         mass: &mut grid.mass,
-        momentum: &mut grid.momentum,
+        momentum: Some(&mut grid.momentum),
         momentum0,
         extra: None,
     };
-    blocks.scatter(spec, kernel, out, |p, buf| {
+    blocks.scatter(out, |p, window, (mass, momentum, momentum0, _)| {
         let (xp, vp, m) = (particles.x[p], particles.v[p], particles.mass[p]);
         let stress =
             stress(particles, &materials.get(particles, p), p) * (-dt * particles.volume0[p]);
@@ -95,11 +95,11 @@ pub(crate) fn p2g<const D: usize>(
         Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
             let d = spec.node_position(&node) - xp;
             let g = mls_gradient(minv, w, &grad, &d);
-            let k = buf.local(&node);
-            buf.mass[k] += w * m;
-            buf.momentum[k] += (mv + affine * d) * w + stress * g;
+            let k = window.local(&node);
+            mass[k] += w * m;
+            momentum[k] += (mv + affine * d) * w + stress * g;
             if with0 {
-                buf.momentum0[k] += vp * (m * w);
+                momentum0[k] += vp * (m * w);
             }
         });
     });
@@ -115,15 +115,14 @@ pub(crate) fn p2g_mass<const D: usize>(
 ) {
     let out = Sums {
         mass: &mut grid.mass,
-        momentum: &mut grid.momentum,
+        momentum: None,
         momentum0: None,
         extra: None,
     };
-    blocks.scatter(spec, kernel, out, |p, buf| {
+    blocks.scatter(out, |p, window, (mass, ..)| {
         let m = particles.mass[p];
         Stencil::new(kernel, spec, &particles.x[p]).for_each(|node, w, _| {
-            let k = buf.local(&node);
-            buf.mass[k] += w * m;
+            mass[window.local(&node)] += w * m;
         });
     });
 }

@@ -9,12 +9,14 @@
 //! which pushes the pair apart by the whole overlap in one step. Walls and colliders are bodies
 //! of infinite mass: `f_p = (m_p/Δt²)(r_p − d) n` where the signed distance `d < r_p`.
 //!
-//! Candidate pairs come from a cell list over the current positions (cells of edge `2 r_max`,
-//! particles sorted by cell, stable in index). Forces are gathered per particle in a fixed order,
+//! Candidate pairs come from a cell list over the current positions
+//! ([`mpm_core::neighbors::CellList`], cells of edge `2 r_max`, particles sorted by cell, stable
+//! in index). Forces are gathered per particle in a fixed order,
 //! so results are bitwise identical for any thread count, and `f_qp = −f_pq` exactly.
 
 use crate::reference::ReferenceConfig;
 use mpm_core::boundary::ColliderShape;
+use mpm_core::neighbors::CellList;
 use mpm_core::{Real, Vector};
 use rayon::prelude::*;
 
@@ -146,10 +148,7 @@ impl<const D: usize> ContactStage<D> {
 /// Cell list and scratch, reused between steps.
 #[derive(Clone, Debug, Default)]
 pub struct ParticleContact<const D: usize> {
-    cell_of: Vec<usize>,
-    start: Vec<usize>,
-    next: Vec<usize>,
-    order: Vec<usize>,
+    cells: CellList<D>,
     /// Per particle: force, pairs with higher index, obstacle contacts, largest overlap.
     found: Vec<(Vector<D>, usize, usize, Real)>,
 }
@@ -165,38 +164,29 @@ impl<const D: usize> ParticleContact<D> {
     ) -> ContactStats {
         let n = input.x.len();
         let r_max = input.radius.iter().copied().fold(0.0, Real::max);
-        let grid = CellGrid::covering(input.x, 2.0 * r_max);
-        self.bin(&grid, input.x);
+        self.cells.build(input.x, 2.0 * r_max);
         let k = 1.0 / (dt * dt);
-        let Self {
-            cell_of,
-            start,
-            order,
-            found,
-            ..
-        } = self;
+        let Self { cells, found } = self;
         (0..n)
             .into_par_iter()
             .map(|p| {
                 let (mut f, mut pairs, mut walls, mut overlap) = (Vector::<D>::zeros(), 0, 0, 0.0);
                 let (xp, rp, mp) = (input.x[p], input.radius[p], input.mass[p]);
-                grid.for_neighbour_cells(cell_of[p], |c| {
-                    for &q in &order[start[c]..start[c + 1]] {
-                        if q == p {
-                            continue;
-                        }
-                        let reach = rp + input.radius[q];
-                        let d = input.x[q] - xp;
-                        let dist = d.norm();
-                        if dist > reach || (input.x_ref[q] - input.x_ref[p]).norm() <= 1.5 * reach {
-                            continue;
-                        }
-                        let mq = input.mass[q];
-                        let scale = if dist > 0.0 { 1.0 - reach / dist } else { 0.0 };
-                        f += d * (k * mp * mq / (mp + mq) * scale);
-                        overlap = Real::max(overlap, reach - dist);
-                        pairs += usize::from(q > p);
+                cells.for_each_candidate(p, |q| {
+                    if q == p {
+                        return;
                     }
+                    let reach = rp + input.radius[q];
+                    let d = input.x[q] - xp;
+                    let dist = d.norm();
+                    if dist > reach || (input.x_ref[q] - input.x_ref[p]).norm() <= 1.5 * reach {
+                        return;
+                    }
+                    let mq = input.mass[q];
+                    let scale = if dist > 0.0 { 1.0 - reach / dist } else { 0.0 };
+                    f += d * (k * mp * mq / (mp + mq) * scale);
+                    overlap = Real::max(overlap, reach - dist);
+                    pairs += usize::from(q > p);
                 });
                 for o in obstacles {
                     let (dist, normal) = o.distance(&xp);
@@ -218,114 +208,6 @@ impl<const D: usize> ParticleContact<D> {
                 obstacle_contacts: s.obstacle_contacts + t.2,
                 max_overlap: s.max_overlap.max(t.3),
             })
-    }
-
-    /// Counting sort of the particles by cell, stable in particle index.
-    fn bin(&mut self, grid: &CellGrid<D>, x: &[Vector<D>]) {
-        x.par_iter()
-            .map(|xp| grid.cell(xp))
-            .collect_into_vec(&mut self.cell_of);
-        self.start.clear();
-        self.start.resize(grid.count() + 1, 0);
-        for &c in &self.cell_of {
-            self.start[c + 1] += 1;
-        }
-        for c in 0..grid.count() {
-            self.start[c + 1] += self.start[c];
-        }
-        self.next.clone_from(&self.start);
-        let next = &mut self.next;
-        self.order.clear();
-        self.order.resize(x.len(), 0);
-        for (p, &c) in self.cell_of.iter().enumerate() {
-            self.order[next[c]] = p;
-            next[c] += 1;
-        }
-    }
-}
-
-/// A uniform grid of cells over the bounding box of the particles.
-struct CellGrid<const D: usize> {
-    origin: Vector<D>,
-    h: Real,
-    dims: [usize; D],
-}
-
-impl<const D: usize> CellGrid<D> {
-    /// Cells of edge `h` (m; at least a tiny positive length) covering every position; the cell
-    /// count per axis is capped so that far-flung particles cannot exhaust memory.
-    fn covering(x: &[Vector<D>], h: Real) -> Self {
-        const MAX_CELLS_PER_AXIS: usize = 1 << 12;
-        let mut lo = Vector::<D>::from_element(Real::INFINITY);
-        let mut hi = Vector::<D>::from_element(Real::NEG_INFINITY);
-        for xp in x {
-            lo = lo.inf(xp);
-            hi = hi.sup(xp);
-        }
-        if x.is_empty() {
-            lo = Vector::<D>::zeros();
-            hi = Vector::<D>::zeros();
-        }
-        let extent = (hi - lo).max();
-        let h = h
-            .max(extent / MAX_CELLS_PER_AXIS as Real)
-            .max(Real::MIN_POSITIVE);
-        let dims = std::array::from_fn(|a| ((hi[a] - lo[a]) / h) as usize + 1);
-        Self {
-            origin: lo,
-            h,
-            dims,
-        }
-    }
-
-    fn count(&self) -> usize {
-        self.dims.iter().product()
-    }
-
-    fn coords(&self, x: &Vector<D>) -> [usize; D] {
-        std::array::from_fn(|a| {
-            (((x[a] - self.origin[a]) / self.h).max(0.0) as usize).min(self.dims[a] - 1)
-        })
-    }
-
-    fn cell(&self, x: &Vector<D>) -> usize {
-        self.linear(&self.coords(x))
-    }
-
-    fn linear(&self, c: &[usize; D]) -> usize {
-        let mut idx = 0;
-        let mut stride = 1;
-        for a in 0..D {
-            idx += c[a] * stride;
-            stride *= self.dims[a];
-        }
-        idx
-    }
-
-    /// Calls `f` for the cell `cell` and its neighbours (3^D block clipped to the grid), in a
-    /// fixed order.
-    fn for_neighbour_cells(&self, cell: usize, mut f: impl FnMut(usize)) {
-        let mut c = [0usize; D];
-        let mut r = cell;
-        for a in 0..D {
-            c[a] = r % self.dims[a];
-            r /= self.dims[a];
-        }
-        for k in 0..3usize.pow(D as u32) {
-            let mut m = k;
-            let mut nb = [0usize; D];
-            let mut inside = true;
-            for a in 0..D {
-                let off = (m % 3) as i64 - 1;
-                m /= 3;
-                let v = c[a] as i64 + off;
-                inside &= v >= 0 && v < self.dims[a] as i64;
-                nb[a] = v.max(0) as usize;
-            }
-            if inside {
-                f(self.linear(&nb));
-            }
-        }
     }
 }
 

@@ -1,0 +1,732 @@
+//! Deterministic parallel particle-to-grid scatter with any set of node channels.
+//!
+//! [`Blocks`] bins particles by the grid block (`B^D` cells, `B` = 16 in 2D and 8 in 3D) that
+//! holds the first node of their kernel stencil: a counting sort, stable in particle index.
+//! [`Blocks::scatter`] then lets every non-empty block scatter its particles, in index order,
+//! into a private buffer covering the block's nodes plus the stencil overhang; blocks run in
+//! parallel. The buffers are added to the grid serially in block order. Every node therefore
+//! receives its contributions in an order fixed by the particle positions alone, so the sums are
+//! bitwise identical for any thread count. No atomics on floats are involved.
+//!
+//! What is scattered is chosen by the caller: a tuple of one to six per-node arrays (the
+//! *channels*), each of any [`NodeValue`] type (`Real`, `Vector<D>`, counters, …). The first
+//! channel is the *gate*: it is always scattered, and a buffer node whose gate value is still
+//! zero ([`NodeValue::zero`]) is taken to have received nothing and is not added to the grid, so it
+//! should be a sum of non-negative weights such as a mass or a volume. The other channels may be
+//! `Option<&mut Vec<T>>`; `None` skips the channel (its block buffers stay empty).
+//!
+//! ```
+//! use mpm_core::scatter::{BlockBuffers, Blocks};
+//! use mpm_core::{GridSpec, Kernel, Real, Stencil, Vector};
+//!
+//! let spec = GridSpec::<2>::new(Vector::<2>::zeros(), 0.1, [21, 21]);
+//! let (x, m, v) = (
+//!     vec![Vector::<2>::new(0.52, 0.31)],
+//!     vec![2.0],
+//!     vec![Vector::<2>::new(1.0, 0.0)],
+//! );
+//! let mut blocks = Blocks::default();
+//! blocks.sort(&spec, Kernel::Quadratic, &x);
+//! let mut buffers = BlockBuffers::default();
+//! let (mut mass, mut momentum) = (Vec::<Real>::new(), Vec::<Vector<2>>::new());
+//! blocks.scatter(&mut buffers, (&mut mass, &mut momentum), |p, window, (mb, pb)| {
+//!     Stencil::new(Kernel::Quadratic, &spec, &x[p]).for_each(|node, w, _| {
+//!         let k = window.local(&node);
+//!         mb[k] += w * m[p];
+//!         pb[k] += v[p] * (w * m[p]);
+//!     });
+//! });
+//! assert!((mass.iter().sum::<Real>() - 2.0).abs() < 1e-14);
+//! assert!((momentum.iter().sum::<Vector<2>>().x - 2.0).abs() < 1e-14);
+//! ```
+
+use crate::grid::GridSpec;
+use crate::kernel::Kernel;
+use crate::math::{Real, Vector};
+use nalgebra::SMatrix;
+use rayon::prelude::*;
+use std::ops::AddAssign;
+
+/// A per-node quantity that can be scattered: summed with `+=` from [`zero`](Self::zero), in
+/// the units of whatever the caller scatters. Implemented for `Real` (and `f32`), the integer
+/// types and fixed-size matrices of `Real` (`Vector<D>`, `Matrix<D>`); implement it for a custom
+/// per-node type to scatter that.
+pub trait NodeValue: Copy + PartialEq + AddAssign + Send + Sync {
+    /// The additive identity.
+    fn zero() -> Self;
+}
+
+macro_rules! node_value {
+    ($($t:ty),*) => {
+        $(impl NodeValue for $t {
+            #[inline]
+            fn zero() -> Self {
+                0 as $t
+            }
+        })*
+    };
+}
+
+node_value!(f64, f32, u8, u16, u32, u64, usize, i8, i16, i32, i64, isize);
+
+/// Every fixed-size matrix of `Real`: `Vector<D>`, `Matrix<D>`, …
+impl<const R: usize, const C: usize> NodeValue for SMatrix<Real, R, C> {
+    #[inline]
+    fn zero() -> Self {
+        Self::zeros()
+    }
+}
+
+/// One output channel of a scatter: a per-node array, resized to the grid's node count and
+/// zeroed before the sums are added, or nothing.
+pub trait Output {
+    /// The per-node value.
+    type Value: NodeValue;
+    /// The array the sums go to, or `None` when this channel is not scattered.
+    fn array(&mut self) -> Option<&mut Vec<Self::Value>>;
+    /// Whether this channel is scattered.
+    fn enabled(&self) -> bool;
+}
+
+impl<T: NodeValue> Output for &mut Vec<T> {
+    type Value = T;
+    fn array(&mut self) -> Option<&mut Vec<T>> {
+        Some(&mut **self)
+    }
+    fn enabled(&self) -> bool {
+        true
+    }
+}
+
+impl<T: NodeValue> Output for Option<&mut Vec<T>> {
+    type Value = T;
+    fn array(&mut self) -> Option<&mut Vec<T>> {
+        self.as_deref_mut()
+    }
+    fn enabled(&self) -> bool {
+        self.is_some()
+    }
+}
+
+/// The private node storage of one block: a tuple of `Vec<T>`, one per channel, each of
+/// `window.len()` entries while its channel is scattered and empty otherwise.
+pub trait BlockStorage: Default + Send {
+    /// Zeroes every channel whose bit is set in `enabled` (bit `c` for channel `c`; the gate,
+    /// channel 0, is always enabled) to `len` nodes and empties the others.
+    fn reset(&mut self, enabled: u32, len: usize);
+    /// Whether local node `k` received anything: its gate value is not zero.
+    fn received(&self, k: usize) -> bool;
+    /// Bytes held (lengths, not capacities).
+    fn bytes(&self) -> usize;
+}
+
+/// A set of output channels scattered together: a tuple `(&mut Vec<T0>, O1, O2, …)` of up to six
+/// channels whose first one, the gate, is always present and the others are any [`Output`].
+pub trait Channels {
+    /// The matching block storage, `(Vec<T0>, Vec<T1>, …)`.
+    type Storage: BlockStorage;
+    /// Bit `c` set: channel `c` is scattered.
+    fn enabled(&self) -> u32;
+    /// Clears every scattered output array and fills it with `num_nodes` zeros.
+    fn zero(&mut self, num_nodes: usize);
+    /// Adds local node `k` of `block` to grid node `node` in every scattered output.
+    fn add(&mut self, node: usize, block: &Self::Storage, k: usize);
+}
+
+macro_rules! channel_tuple {
+    ($($i:tt $T:ident $O:ident),*) => {
+        impl<T0: NodeValue, $($T: NodeValue),*> BlockStorage for (Vec<T0>, $(Vec<$T>,)*) {
+            fn reset(&mut self, _enabled: u32, len: usize) {
+                self.0.clear();
+                self.0.resize(len, T0::zero());
+                $(
+                    self.$i.clear();
+                    if _enabled & (1 << $i) != 0 {
+                        self.$i.resize(len, $T::zero());
+                    }
+                )*
+            }
+
+            #[inline]
+            fn received(&self, k: usize) -> bool {
+                self.0[k] != T0::zero()
+            }
+
+            fn bytes(&self) -> usize {
+                self.0.len() * std::mem::size_of::<T0>()
+                    $(+ self.$i.len() * std::mem::size_of::<$T>())*
+            }
+        }
+
+        impl<'a, T0: NodeValue, $($O: Output),*> Channels for (&'a mut Vec<T0>, $($O,)*) {
+            type Storage = (Vec<T0>, $(Vec<$O::Value>,)*);
+
+            fn enabled(&self) -> u32 {
+                1 $(| (u32::from(self.$i.enabled()) << $i))*
+            }
+
+            fn zero(&mut self, num_nodes: usize) {
+                self.0.clear();
+                self.0.resize(num_nodes, T0::zero());
+                $(
+                    if let Some(out) = self.$i.array() {
+                        out.clear();
+                        out.resize(num_nodes, NodeValue::zero());
+                    }
+                )*
+            }
+
+            #[inline]
+            fn add(&mut self, node: usize, block: &Self::Storage, k: usize) {
+                self.0[node] += block.0[k];
+                $(
+                    if let Some(out) = self.$i.array() {
+                        out[node] += block.$i[k];
+                    }
+                )*
+            }
+        }
+    };
+}
+
+channel_tuple!();
+channel_tuple!(1 T1 O1);
+channel_tuple!(1 T1 O1, 2 T2 O2);
+channel_tuple!(1 T1 O1, 2 T2 O2, 3 T3 O3);
+channel_tuple!(1 T1 O1, 2 T2 O2, 3 T3 O3, 4 T4 O4);
+channel_tuple!(1 T1 O1, 2 T2 O2, 3 T3 O3, 4 T4 O4, 5 T5 O5);
+
+/// The nodes a block's buffer covers: a box of `width^D` nodes starting at grid node `origin`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BlockWindow<const D: usize> {
+    origin: [i64; D],
+    width: usize,
+}
+
+impl<const D: usize> BlockWindow<D> {
+    /// First grid node (multi-index) of the window.
+    pub fn origin(&self) -> [i64; D] {
+        self.origin
+    }
+
+    /// Nodes per axis.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Number of nodes, `width^D`.
+    pub fn len(&self) -> usize {
+        self.width.pow(D as u32)
+    }
+
+    /// Whether the window has no nodes (never for a window a scatter passes to its closure).
+    pub fn is_empty(&self) -> bool {
+        self.width == 0
+    }
+
+    /// Index into the block's buffers of grid node `node`, which must lie in the window (every
+    /// node of the stencil of a particle binned in this block does).
+    #[inline]
+    pub fn local(&self, node: &[i64; D]) -> usize {
+        let mut idx = 0;
+        let mut stride = 1;
+        for a in 0..D {
+            idx += (node[a] - self.origin[a]) as usize * stride;
+            stride *= self.width;
+        }
+        idx
+    }
+
+    /// Grid multi-index of buffer index `k` (the inverse of [`local`](Self::local)).
+    #[inline]
+    pub fn node(&self, mut k: usize) -> [i64; D] {
+        let mut node = [0i64; D];
+        for a in 0..D {
+            node[a] = self.origin[a] + (k % self.width) as i64;
+            k /= self.width;
+        }
+        node
+    }
+}
+
+/// Per-block buffers of one channel set, reused from scatter to scatter. Several channel sets
+/// with the same storage type can share one `BlockBuffers`.
+#[derive(Clone, Debug)]
+pub struct BlockBuffers<S> {
+    blocks: Vec<S>,
+    used: usize,
+}
+
+impl<S> Default for BlockBuffers<S> {
+    fn default() -> Self {
+        Self {
+            blocks: Vec::new(),
+            used: 0,
+        }
+    }
+}
+
+impl<S: BlockStorage> BlockBuffers<S> {
+    /// Bytes held by the buffers of the last scatter (lengths, not capacities).
+    pub fn bytes(&self) -> usize {
+        self.blocks[..self.used].iter().map(S::bytes).sum()
+    }
+}
+
+/// Particle binning by grid block, reused from step to step.
+#[derive(Clone, Debug)]
+pub struct Blocks<const D: usize> {
+    /// Grid and kernel of the last sort.
+    grid: Option<(GridSpec<D>, Kernel)>,
+    dims: [usize; D],
+    block_of: Vec<usize>,
+    counts: Vec<usize>,
+    order: Vec<usize>,
+    /// Non-empty blocks: (block id, start, end) ranges into `order`.
+    ranges: Vec<(usize, usize, usize)>,
+}
+
+impl<const D: usize> Default for Blocks<D> {
+    fn default() -> Self {
+        Self {
+            grid: None,
+            dims: [0; D],
+            block_of: Vec::new(),
+            counts: Vec::new(),
+            order: Vec::new(),
+            ranges: Vec::new(),
+        }
+    }
+}
+
+impl<const D: usize> Blocks<D> {
+    /// Block edge length in cells (16 in 2D, 8 in 3D): large enough to amortise the overhang,
+    /// small enough for load balance.
+    pub const BLOCK_CELLS: usize = if D == 2 { 16 } else { 8 };
+
+    /// Bins every particle at positions `x` (m) for scatters with `kernel` onto `spec`. Every
+    /// position must have its stencil inside the grid.
+    pub fn sort(&mut self, spec: &GridSpec<D>, kernel: Kernel, x: &[Vector<D>]) {
+        self.sort_where(spec, kernel, x, |_| true);
+    }
+
+    /// Bins the particles `p` at positions `x` (m) with `keep(p)`; the others take part in no
+    /// scatter. Every kept position must have its stencil inside the grid.
+    pub fn sort_where(
+        &mut self,
+        spec: &GridSpec<D>,
+        kernel: Kernel,
+        x: &[Vector<D>],
+        keep: impl Fn(usize) -> bool + Sync,
+    ) {
+        let b = Self::BLOCK_CELLS;
+        self.grid = Some((*spec, kernel));
+        self.dims = std::array::from_fn(|a| spec.size[a].div_ceil(b));
+        let nblocks: usize = self.dims.iter().product();
+        let inv_dx = 1.0 / spec.dx;
+        let dims = self.dims;
+        x.par_iter()
+            .enumerate()
+            .map(|(p, xp)| {
+                if !keep(p) {
+                    return usize::MAX;
+                }
+                let mut id = 0;
+                let mut stride = 1;
+                for a in 0..D {
+                    let base = kernel.base_node((xp[a] - spec.origin[a]) * inv_dx).max(0) as usize;
+                    id += (base / b).min(dims[a] - 1) * stride;
+                    stride *= dims[a];
+                }
+                id
+            })
+            .collect_into_vec(&mut self.block_of);
+        self.counts.clear();
+        self.counts.resize(nblocks + 1, 0);
+        for &id in self.block_of.iter().filter(|&&id| id != usize::MAX) {
+            self.counts[id + 1] += 1;
+        }
+        self.ranges.clear();
+        for id in 0..nblocks {
+            let (start, n) = (self.counts[id], self.counts[id + 1]);
+            if n > 0 {
+                self.ranges.push((id, start, start + n));
+            }
+            self.counts[id + 1] = start + n;
+        }
+        self.order.clear();
+        self.order.resize(self.counts[nblocks], 0);
+        for (p, &id) in self.block_of.iter().enumerate() {
+            if id == usize::MAX {
+                continue;
+            }
+            self.order[self.counts[id]] = p;
+            self.counts[id] += 1;
+        }
+    }
+
+    /// The binned particles sorted by block, in index order within a block.
+    pub fn order(&self) -> &[usize] {
+        &self.order
+    }
+
+    /// Number of non-empty blocks.
+    pub fn block_count(&self) -> usize {
+        self.ranges.len()
+    }
+
+    /// Bytes held by the binning (lengths, not capacities): `(per-particle arrays, per-grid
+    /// arrays)`. Add [`BlockBuffers::bytes`] for the buffers.
+    pub fn bytes(&self) -> (usize, usize) {
+        let u = std::mem::size_of::<usize>();
+        let per_particle = (self.block_of.len() + self.order.len()) * u;
+        let grid = self.counts.len() * u + self.ranges.len() * 3 * u;
+        (per_particle, grid)
+    }
+
+    /// Scatters every binned particle: `f(p, window, storage)` adds particle `p`'s contributions
+    /// to its block's buffers `storage` at the indices `window.local(&node)`. Blocks run in
+    /// parallel, each over its particles in index order; then every channel array of `out` is
+    /// resized to the grid's node count, zeroed, and receives the buffers in block order (buffer
+    /// nodes whose gate is zero, or outside the grid, are skipped).
+    ///
+    /// # Panics
+    /// Before the first [`sort`](Self::sort).
+    pub fn scatter<C, F>(&self, buffers: &mut BlockBuffers<C::Storage>, mut out: C, f: F)
+    where
+        C: Channels,
+        F: Fn(usize, &BlockWindow<D>, &mut C::Storage) + Sync,
+    {
+        let (spec, kernel) = self.grid.expect("Blocks::sort before Blocks::scatter");
+        let width = Self::BLOCK_CELLS + kernel.support() - 1;
+        let len = width.pow(D as u32);
+        let enabled = out.enabled();
+        if buffers.blocks.len() < self.ranges.len() {
+            buffers
+                .blocks
+                .resize_with(self.ranges.len(), Default::default);
+        }
+        buffers.used = self.ranges.len();
+        let (b, dims, order) = (Self::BLOCK_CELLS as i64, self.dims, &self.order);
+        let window_of = |id: usize| BlockWindow {
+            origin: block_origin(id, &dims, b),
+            width,
+        };
+        self.ranges
+            .par_iter()
+            .zip(buffers.blocks.par_iter_mut())
+            .for_each(|(&(id, start, end), buf)| {
+                let window = window_of(id);
+                buf.reset(enabled, len);
+                for &p in &order[start..end] {
+                    f(p, &window, buf);
+                }
+            });
+        out.zero(spec.num_nodes());
+        for (&(id, _, _), buf) in self.ranges.iter().zip(&buffers.blocks) {
+            let window = window_of(id);
+            for k in 0..len {
+                if !buf.received(k) {
+                    continue;
+                }
+                let Some(i) = spec.linear_index(&window.node(k)) else {
+                    continue;
+                };
+                out.add(i, buf, k);
+            }
+        }
+    }
+}
+
+fn block_origin<const D: usize>(mut id: usize, dims: &[usize; D], b: i64) -> [i64; D] {
+    let mut o = [0i64; D];
+    for a in 0..D {
+        o[a] = (id % dims[a]) as i64 * b;
+        id /= dims[a];
+    }
+    o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::Lcg;
+    use crate::{Real, Stencil};
+
+    /// Particles: positions (m), masses (kg), velocities (m/s).
+    struct Cloud<const D: usize> {
+        x: Vec<Vector<D>>,
+        m: Vec<Real>,
+        v: Vec<Vector<D>>,
+    }
+
+    /// `n` particles uniform in grid units `[2, size − 3]` (every kernel's stencil inside).
+    fn cloud<const D: usize>(spec: &GridSpec<D>, n: usize, seed: u64) -> Cloud<D> {
+        let mut r = Lcg(seed);
+        let x = (0..n)
+            .map(|_| {
+                Vector::<D>::from_fn(|a, _| {
+                    let span = (spec.size[a] - 5) as Real;
+                    spec.origin[a] + (2.0 + span * r.next()) * spec.dx
+                })
+            })
+            .collect();
+        let m = (0..n).map(|_| 0.5 + r.next()).collect();
+        let v = (0..n)
+            .map(|_| Vector::<D>::from_fn(|_, _| 4.0 * r.next() - 2.0))
+            .collect();
+        Cloud { x, m, v }
+    }
+
+    type Sums<const D: usize> = (Vec<Real>, Vec<Vector<D>>);
+
+    /// Block scatter of `Σ w m` and `Σ w m v`.
+    fn block_scatter<const D: usize>(
+        blocks: &Blocks<D>,
+        buffers: &mut BlockBuffers<Sums<D>>,
+        spec: &GridSpec<D>,
+        kernel: Kernel,
+        c: &Cloud<D>,
+    ) -> Sums<D> {
+        let (mut mass, mut momentum) = (Vec::new(), Vec::new());
+        blocks.scatter(
+            buffers,
+            (&mut mass, &mut momentum),
+            |p, window, (mb, pb)| {
+                Stencil::new(kernel, spec, &c.x[p]).for_each(|node, w, _| {
+                    let k = window.local(&node);
+                    mb[k] += w * c.m[p];
+                    pb[k] += c.v[p] * (w * c.m[p]);
+                });
+            },
+        );
+        (mass, momentum)
+    }
+
+    /// The plain serial scatter in particle order, straight into the grid.
+    fn serial_scatter<const D: usize>(
+        spec: &GridSpec<D>,
+        kernel: Kernel,
+        c: &Cloud<D>,
+        keep: impl Fn(usize) -> bool,
+    ) -> Sums<D> {
+        let mut mass = vec![0.0; spec.num_nodes()];
+        let mut momentum = vec![Vector::<D>::zeros(); spec.num_nodes()];
+        for p in (0..c.x.len()).filter(|&p| keep(p)) {
+            Stencil::new(kernel, spec, &c.x[p]).for_each(|node, w, _| {
+                let i = spec.linear_index(&node).unwrap();
+                mass[i] += w * c.m[p];
+                momentum[i] += c.v[p] * (w * c.m[p]);
+            });
+        }
+        (mass, momentum)
+    }
+
+    fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(f)
+    }
+
+    fn bits<const D: usize>((mass, momentum): &Sums<D>) -> Vec<u64> {
+        let mut b: Vec<u64> = mass.iter().map(|m| m.to_bits()).collect();
+        b.extend(momentum.iter().flat_map(|p| p.iter().map(|c| c.to_bits())));
+        b
+    }
+
+    fn spec_2d() -> GridSpec<2> {
+        GridSpec::new(Vector::<2>::new(-0.3, 0.1), 0.01, [100, 70])
+    }
+
+    fn spec_3d() -> GridSpec<3> {
+        GridSpec::new(Vector::<3>::new(0.2, -0.1, 0.0), 0.02, [30, 26, 20])
+    }
+
+    fn conserves_and_ignores_threads<const D: usize>(spec: GridSpec<D>, kernel: Kernel) {
+        let c = cloud(&spec, 4000, 3 + D as u64);
+        let run = |threads: usize| {
+            with_threads(threads, || {
+                let mut blocks = Blocks::default();
+                blocks.sort(&spec, kernel, &c.x);
+                assert!(
+                    blocks.block_count() >= 20,
+                    "D = {D}: {} blocks",
+                    blocks.block_count()
+                );
+                assert_eq!(blocks.order().len(), c.x.len());
+                let mut buffers = BlockBuffers::default();
+                let first = block_scatter(&blocks, &mut buffers, &spec, kernel, &c);
+                // Reused buffers give the same sums.
+                assert_eq!(
+                    bits(&first),
+                    bits(&block_scatter(&blocks, &mut buffers, &spec, kernel, &c))
+                );
+                first
+            })
+        };
+        let (one, two) = (run(1), run(2));
+        assert_eq!(
+            bits(&one),
+            bits(&two),
+            "{kernel:?} D = {D}: 1 and 2 threads"
+        );
+        let total_m: Real = c.m.iter().sum();
+        let total_p: Vector<D> = c.v.iter().zip(&c.m).map(|(v, m)| v * *m).sum();
+        let grid_m: Real = one.0.iter().sum();
+        let grid_p: Vector<D> = one.1.iter().sum();
+        assert!(
+            (grid_m - total_m).abs() <= 1e-12 * total_m,
+            "mass {grid_m} vs {total_m}"
+        );
+        assert!(
+            (grid_p - total_p).norm() <= 1e-12 * total_m,
+            "momentum {grid_p} vs {total_p}"
+        );
+        // Node by node the same sums as the serial scatter, up to summation order.
+        let serial = serial_scatter(&spec, kernel, &c, |_| true);
+        for i in 0..spec.num_nodes() {
+            assert!((one.0[i] - serial.0[i]).abs() <= 1e-13 * (1.0 + serial.0[i]));
+            assert!((one.1[i] - serial.1[i]).norm() <= 1e-13 * (1.0 + serial.0[i]));
+        }
+    }
+
+    #[test]
+    fn scatter_conserves_totals_and_is_bitwise_thread_count_independent() {
+        for kernel in [Kernel::Linear, Kernel::Quadratic, Kernel::Cubic] {
+            conserves_and_ignores_threads(spec_2d(), kernel);
+            conserves_and_ignores_threads(spec_3d(), kernel);
+        }
+    }
+
+    /// Positions on a 1/8-cell lattice, dyadic masses and velocities: every product and sum is
+    /// exact, so any summation order gives the same bits as the plain serial scatter.
+    fn dyadic_matches_serial<const D: usize>(size: [usize; D]) {
+        let spec = GridSpec::new(Vector::<D>::zeros(), 0.125, size);
+        let mut r = Lcg(11);
+        let n = 3000;
+        let c = Cloud {
+            x: (0..n)
+                .map(|_| {
+                    Vector::<D>::from_fn(|a, _| {
+                        let eighths = 16 + (r.next() * (8 * (size[a] - 5)) as Real) as usize;
+                        eighths as Real / 8.0 * spec.dx
+                    })
+                })
+                .collect(),
+            m: (0..n)
+                .map(|_| (1 + (r.next() * 16.0) as u32) as Real / 16.0)
+                .collect(),
+            v: (0..n)
+                .map(|_| Vector::<D>::from_fn(|_, _| ((r.next() * 16.0) as i32 - 8) as Real / 4.0))
+                .collect(),
+        };
+        let serial = serial_scatter(&spec, Kernel::Quadratic, &c, |_| true);
+        for threads in [1, 2] {
+            let sums = with_threads(threads, || {
+                let mut blocks = Blocks::default();
+                blocks.sort(&spec, Kernel::Quadratic, &c.x);
+                block_scatter(
+                    &blocks,
+                    &mut BlockBuffers::default(),
+                    &spec,
+                    Kernel::Quadratic,
+                    &c,
+                )
+            });
+            assert_eq!(bits(&sums), bits(&serial), "D = {D}, {threads} threads");
+        }
+        // The sums are exact: Σ_i m_i = Σ_p m_p to the last bit.
+        let total: Real = c.m.iter().sum();
+        assert_eq!(serial.0.iter().sum::<Real>(), total);
+    }
+
+    #[test]
+    fn exact_scatter_equals_the_plain_serial_scatter_bitwise() {
+        dyadic_matches_serial([70, 50]);
+        dyadic_matches_serial([30, 22, 20]);
+    }
+
+    #[test]
+    fn channel_sets_compose() {
+        let spec = spec_2d();
+        let kernel = Kernel::Quadratic;
+        let c = cloud(&spec, 3000, 5);
+        let mut blocks = Blocks::default();
+        blocks.sort(&spec, kernel, &c.x);
+        let mut buffers = BlockBuffers::default();
+        let both = block_scatter(&blocks, &mut buffers, &spec, kernel, &c);
+        let window_len = (Blocks::<2>::BLOCK_CELLS + 2).pow(2);
+        let per_block = window_len * (8 + 16);
+        assert_eq!(buffers.bytes(), blocks.block_count() * per_block);
+        let (mut mass, mut momentum) = (Vec::new(), Vec::new());
+        blocks.scatter(
+            &mut BlockBuffers::default(),
+            (&mut mass,),
+            |p, window, (mb,)| {
+                Stencil::new(kernel, &spec, &c.x[p]).for_each(|node, w, _| {
+                    mb[window.local(&node)] += w * c.m[p];
+                });
+            },
+        );
+        blocks.scatter(
+            &mut BlockBuffers::default(),
+            (&mut momentum,),
+            |p, window, (pb,)| {
+                Stencil::new(kernel, &spec, &c.x[p]).for_each(|node, w, _| {
+                    pb[window.local(&node)] += c.v[p] * (w * c.m[p]);
+                });
+            },
+        );
+        assert_eq!(bits(&both), bits(&(mass, momentum)));
+
+        // Three channels of other types, one of them switched off: a u32 count of the
+        // particle–node pairs and an absent channel, which leaves its block buffers empty.
+        let (mut mass, mut count) = (Vec::<Real>::new(), Vec::<u32>::new());
+        let mut buffers3 = BlockBuffers::default();
+        let off: Option<&mut Vec<Vector<2>>> = None;
+        blocks.scatter(
+            &mut buffers3,
+            (&mut mass, off, Some(&mut count)),
+            |p, window, (mb, unused, nb)| {
+                assert!(unused.is_empty());
+                Stencil::new(kernel, &spec, &c.x[p]).for_each(|node, w, _| {
+                    let k = window.local(&node);
+                    mb[k] += w * c.m[p];
+                    nb[k] += 1;
+                });
+            },
+        );
+        assert_eq!(mass.len(), spec.num_nodes());
+        assert!(mass
+            .iter()
+            .zip(&both.0)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert_eq!(count.iter().sum::<u32>(), 3000 * 9);
+        assert_eq!(
+            buffers3.bytes(),
+            blocks.block_count() * window_len * (8 + 4)
+        );
+    }
+
+    #[test]
+    fn sort_where_scatters_only_the_kept_particles() {
+        let spec = spec_3d();
+        let kernel = Kernel::Cubic;
+        let c = cloud(&spec, 2000, 9);
+        let keep = |p: usize| p % 3 == 1;
+        let mut blocks = Blocks::default();
+        blocks.sort_where(&spec, kernel, &c.x, keep);
+        assert_eq!(blocks.order().len(), (0..2000).filter(|&p| keep(p)).count());
+        assert!(blocks.order().iter().all(|&p| keep(p)));
+        let sums = block_scatter(&blocks, &mut BlockBuffers::default(), &spec, kernel, &c);
+        let serial = serial_scatter(&spec, kernel, &c, keep);
+        let kept: Real = (0..2000).filter(|&p| keep(p)).map(|p| c.m[p]).sum();
+        assert!((sums.0.iter().sum::<Real>() - kept).abs() <= 1e-12 * kept);
+        for i in 0..spec.num_nodes() {
+            assert!((sums.0[i] - serial.0[i]).abs() <= 1e-13 * (1.0 + serial.0[i]));
+            assert_eq!(sums.0[i] == 0.0, serial.0[i] == 0.0);
+        }
+    }
+}
