@@ -209,6 +209,13 @@ pub enum LinearSolver {
     },
 }
 
+impl LinearSolver {
+    /// Default iteration cap of [`LinearSolver::Cg`] per Newton iteration.
+    pub const CG_MAX_ITERATIONS: u32 = 1000;
+    /// Default relative tolerance of [`LinearSolver::Cg`] (dimensionless).
+    pub const CG_REL_TOL: Real = 1e-6;
+}
+
 /// Parameters of the implicit solver only.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ImplicitParams {

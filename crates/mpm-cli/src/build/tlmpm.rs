@@ -14,7 +14,7 @@ use crate::scene::{
 use mpm_core::{Dim, DimOps, GridSpec, Particles, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, FixedRegion, ImplicitParams, LinearSolver, NewtonParams,
-    Obstacle, SpdProjection, TlmpmParams, Transfer,
+    Obstacle, TlmpmParams, Transfer,
 };
 
 /// The scene keys of the TLMPM solver's parameter names (`SetupError::InvalidParameter`).
@@ -97,13 +97,15 @@ fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
             max_iterations: t.max_iterations.unwrap_or(d.max_iterations),
             abs_tol: t.abs_tol.unwrap_or(d.abs_tol),
             rel_tol: t.rel_tol.unwrap_or(d.rel_tol),
-            projection: t.spd_projection.unwrap_or(SpdProjection::OnFailure),
+            projection: t.spd_projection.unwrap_or(d.projection),
             ..d
         },
         linear: match t.linear_solver {
             Some(LinearSolverKind::Cg) => LinearSolver::Cg {
-                max_iterations: t.cg_max_iterations.unwrap_or(1000),
-                rel_tol: t.cg_rel_tol.unwrap_or(1e-6),
+                max_iterations: t
+                    .cg_max_iterations
+                    .unwrap_or(LinearSolver::CG_MAX_ITERATIONS),
+                rel_tol: t.cg_rel_tol.unwrap_or(LinearSolver::CG_REL_TOL),
             },
             _ => LinearSolver::Cholesky,
         },

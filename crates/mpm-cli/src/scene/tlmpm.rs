@@ -11,7 +11,7 @@ use super::{Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::boundary::ContactKind;
 use mpm_core::Columns;
-use mpm_tlmpm::{ReferenceUpdate, SpdProjection};
+use mpm_tlmpm::{LinearSolver, NewtonParams, ReferenceUpdate, SpdProjection};
 use serde::{Deserialize, Serialize};
 
 /// Time integration of the TLMPM solver.
@@ -208,6 +208,7 @@ fn resolve_box(c: &mut Checker<'_>, key: &str, min: &[f64], max: &[f64], d: usiz
 /// Resolves `[tlmpm]`, `[[fixed]]` and `[[loads]]`, and checks that the common tables fit the
 /// solver.
 fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) -> TlmpmScene {
+    let newton = NewtonParams::default();
     let Common {
         simulation,
         grid,
@@ -258,7 +259,9 @@ fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) 
         }
     }
     let cg_max_iterations = cg.then(|| {
-        let n = t.and_then(|t| t.cg_max_iterations).unwrap_or(1000);
+        let n = t
+            .and_then(|t| t.cg_max_iterations)
+            .unwrap_or(LinearSolver::CG_MAX_ITERATIONS);
         if n == 0 {
             c.err("tlmpm.cg_max_iterations", "must be at least 1");
         }
@@ -267,7 +270,8 @@ fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) 
     let cg_rel_tol = cg.then(|| {
         c.num(
             "tlmpm.cg_rel_tol",
-            t.and_then(|t| t.cg_rel_tol).unwrap_or(1e-6),
+            t.and_then(|t| t.cg_rel_tol)
+                .unwrap_or(LinearSolver::CG_REL_TOL),
             |x| x > 0.0 && x < 1.0,
             "must lie in (0, 1)",
         )
@@ -278,7 +282,9 @@ fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) 
         c,
     )
     .then(|| {
-        let n = t.and_then(|t| t.max_iterations).unwrap_or(30);
+        let n = t
+            .and_then(|t| t.max_iterations)
+            .unwrap_or(newton.max_iterations);
         if !(1..=1000).contains(&n) {
             c.err(
                 "tlmpm.max_iterations",
@@ -287,12 +293,16 @@ fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) 
         }
         n
     });
-    let abs_tol = opt(t.is_some_and(|t| t.abs_tol.is_some()), "abs_tol", c)
-        .then(|| c.positive("tlmpm.abs_tol", t.and_then(|t| t.abs_tol).unwrap_or(1e-10)));
+    let abs_tol = opt(t.is_some_and(|t| t.abs_tol.is_some()), "abs_tol", c).then(|| {
+        c.positive(
+            "tlmpm.abs_tol",
+            t.and_then(|t| t.abs_tol).unwrap_or(newton.abs_tol),
+        )
+    });
     let rel_tol = opt(t.is_some_and(|t| t.rel_tol.is_some()), "rel_tol", c).then(|| {
         c.num(
             "tlmpm.rel_tol",
-            t.and_then(|t| t.rel_tol).unwrap_or(1e-8),
+            t.and_then(|t| t.rel_tol).unwrap_or(newton.rel_tol),
             |x| x > 0.0 && x < 1.0,
             "must lie in (0, 1)",
         )
@@ -304,7 +314,7 @@ fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) 
     )
     .then(|| {
         t.and_then(|t| t.spd_projection)
-            .unwrap_or(SpdProjection::OnFailure)
+            .unwrap_or(newton.projection)
     });
     let contact = t.and_then(|t| t.contact).unwrap_or(true);
     if !contact && !boundaries.is_empty() {
