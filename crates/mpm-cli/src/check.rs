@@ -88,6 +88,19 @@ where
     }
     let columns = s.particles().columns();
     let _ = writeln!(o, "columns:    {}", columns.names().join(", "));
+    let fields: Vec<String> = s
+        .output_fields()
+        .iter()
+        .map(|f| {
+            format!(
+                "{} ({}{})",
+                f.name,
+                f.unit,
+                if f.derived { ", derived" } else { "" }
+            )
+        })
+        .collect();
+    let _ = writeln!(o, "writable:   {}", fields.join(", "));
     let _ = writeln!(
         o,
         "memory:     {} bytes per particle",

@@ -6,8 +6,8 @@ use approx::assert_relative_eq;
 use common::{fill_box, jelly, particles_for, water, with_threads};
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::{
-    Dim, DimOps, GridSpec, Kernel, Matrix, OnInstability, Real, Stage, TimeStepPolicy, Vector,
-    Violation,
+    ColumnData, Dim, DimOps, GridSpec, Kernel, Matrix, OnInstability, Real, Solver, Stage,
+    TimeStepPolicy, Vector, Violation,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver, SoftWalls, Transfer, VolumeUpdate};
 
@@ -410,4 +410,32 @@ fn flip_dissipates_less_than_pic() {
     // Measured: PIC keeps 0.12 of its energy after 100 steps, FLIP 0.94.
     assert!(pic < 0.5, "PIC kept {pic} of its energy");
     assert!(flip > 0.9, "FLIP kept only {flip} of its energy");
+}
+
+/// Every output field the solver lists comes out of `Solver::output` with its unit and
+/// `components` values per particle (the plastic state as three scalar columns).
+#[test]
+fn output_fields_match_the_written_columns() {
+    let s = spinning_block::<3>(Kernel::Quadratic, Transfer::Apic);
+    let n = s.particles().len();
+    let fields = Solver::output_fields(&s);
+    let names: Vec<&str> = fields.iter().map(|f| f.name).collect();
+    assert_eq!(
+        names,
+        ["x", "v", "mass", "volume0", "material", "affine", "F", "pressure"]
+    );
+    for f in &fields {
+        let cols = Solver::output(&s, f.name);
+        assert_eq!(cols.len(), 1, "{}", f.name);
+        assert_eq!(cols[0].unit, f.unit, "{}", f.name);
+        let len = match &cols[0].data {
+            ColumnData::F64 { values, .. } => values.len(),
+            ColumnData::U32 { values, .. } => values.len(),
+        };
+        assert_eq!(len, n * f.components, "{}", f.name);
+    }
+    // The pressure of the stretched jelly (F_00 = 1.02) is the mean stress, negative in tension.
+    let p = Solver::pressure(&s);
+    assert!(p.iter().all(|&p| p < 0.0 && p.is_finite()), "{:?}", &p[..3]);
+    assert!(Solver::output(&s, "no_such_field").is_empty());
 }
