@@ -24,6 +24,7 @@
 mod cg;
 mod cholesky;
 mod dof;
+mod multigrid;
 mod par;
 mod pattern;
 mod precond;
@@ -35,6 +36,10 @@ pub use cg::{
 };
 pub use cholesky::{CholeskyError, SparseCholesky};
 pub use dof::DofMap;
+pub use multigrid::{
+    CellLabel, MultigridParams, MultigridPreconditioner, PoissonGrid, PoissonGridError,
+    PoissonOperator,
+};
 pub use pattern::{BlockColumn, PatternError, SymmetricMatrix, SymmetricPattern};
 pub use precond::{Identity, Jacobi, Preconditioner};
 pub use unknown::{dot, norm, Unknown};
