@@ -12,6 +12,28 @@
 //! - [`SparseCholesky`]: sparse `L Lᵀ` with the symbolic factorisation computed once per pattern
 //!   and the numeric one per matrix.
 //! - [`DofMap`]: grid nodes or cells ↔ compact unknown indices, rebuilt in place.
+//! - [`PoissonGrid`]: a cell-centred pressure Poisson problem on a grid of labelled cells
+//!   ([`CellLabel`]: fluid unknowns, air with `p = 0`, solid walls closing faces), with its
+//!   matrix-free [`PoissonOperator`], [`PoissonGrid::assemble`] into a [`SymmetricMatrix`], and
+//!   the geometric multigrid V-cycle [`MultigridPreconditioner`] (McAdams, Sifakis and Teran
+//!   2010), 2D and 3D.
+//!
+//! **Pressure preconditioner: multigrid is the default.** CG with each preconditioner on the 3D
+//! 7-point Dirichlet Poisson problem of `n³` unknowns (diagonal 6, off-diagonal −1, standard
+//! normal right-hand side, `x₀ = 0`) to `‖b − A x‖ ≤ 10⁻⁶ ‖b‖`, matrix-free operator, set-up +
+//! solve wall time, 2 rayon threads on a shared 2-core machine (load average ≈ 4), one run each
+//! (`cargo bench -p mpm-benches --bench pressure`, which prints this table first):
+//!
+//! | n | identity: s (iterations) | Jacobi: s (iterations) | multigrid: s (iterations) |
+//! |---|---|---|---|
+//! | 32 | 0.041 (97) | 0.032 (97) | 0.030 (8) |
+//! | 64 | 0.672 (185) | 0.520 (185) | 0.174 (8) |
+//! | 128 | 20.1 (349) | 17.5 (349) | 2.28 (9) |
+//!
+//! Jacobi equals identity in iterations here because the diagonal is constant; it differs on
+//! labelled grids (solid faces lower the diagonal). The multigrid iteration count stays flat with
+//! `n`, so its advantage grows with the grid: use [`MultigridPreconditioner`] for cell-centred
+//! pressure systems. No incomplete-Cholesky preconditioner exists yet.
 //!
 //! **Determinism.** Inner products are summed serially in index order, vector updates are
 //! element-wise, matrix–vector products are serial, parallel refills give each value to one
