@@ -63,7 +63,7 @@ pub use multigrid::{
     PoissonOperator,
 };
 pub use pattern::{BlockColumn, PatternError, SymmetricMatrix, SymmetricPattern};
-pub use precond::{Identity, Jacobi, Preconditioner};
+pub use precond::{Identity, IncompleteCholesky, Jacobi, Preconditioner};
 pub use unknown::{dot, norm, Unknown};
 
 #[cfg(test)]

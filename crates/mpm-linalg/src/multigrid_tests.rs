@@ -2,7 +2,10 @@
 
 use super::*;
 use crate::tests::{in_pool, samples};
-use crate::{conjugate_gradient, dot, CgParams, CgWorkspace, Identity, Jacobi, SparseCholesky};
+use crate::{
+    conjugate_gradient, dot, CgParams, CgWorkspace, Identity, IncompleteCholesky, Jacobi,
+    SparseCholesky,
+};
 
 /// Solves `A x = b` on `grid` by CG to `‖r‖ ≤ rel_tol ‖b‖` (x₀ = 0) with the preconditioner
 /// `precond`; returns the solution and the iterations.
@@ -128,8 +131,11 @@ fn check_against_cholesky<const D: usize>(grid: &PoissonGrid<D>) -> u32 {
     let mut mg = MultigridPreconditioner::with_params(grid, mg_params());
     assert!(mg.num_levels() >= 3);
     let (x, iterations) = solve(grid, &mut mg, &b, 1e-10);
+    let mut ic0 = IncompleteCholesky::new(&a).unwrap();
+    let (x_ic0, _) = solve(grid, &mut ic0, &b, 1e-10);
     let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for k in 0..n {
+        assert!((x_ic0[k] - exact[k]).abs() <= 1e-8 * scale, "IC(0) {k}");
         assert!(
             (x[k] - exact[k]).abs() <= 1e-8 * scale,
             "{k}: {} vs {}",
@@ -150,7 +156,17 @@ fn multigrid_cg_matches_cholesky_2d_and_3d() {
 
 fn check_symmetric_positive<const D: usize>(grid: &PoissonGrid<D>) {
     let n = grid.num_unknowns();
-    let mut mg = MultigridPreconditioner::with_params(grid, mg_params());
+    check_symmetric_positive_precond(
+        n,
+        &mut MultigridPreconditioner::with_params(grid, mg_params()),
+    );
+    check_symmetric_positive_precond(
+        n,
+        &mut IncompleteCholesky::new(&grid.assemble().unwrap()).unwrap(),
+    );
+}
+
+fn check_symmetric_positive_precond<P: Preconditioner<f64>>(n: usize, mg: &mut P) {
     for seed in [0.3, 1.7, 2.9] {
         let x = samples(seed, n);
         let y = samples(seed + 0.11, n);
@@ -186,7 +202,10 @@ fn multigrid_needs_far_fewer_iterations_than_jacobi_at_32() {
     let it_mg = iterations(n, &mut mg);
     let it_jacobi = iterations(n, &mut jacobi);
     let it_id = iterations(n, &mut Identity);
-    eprintln!("n = 32: multigrid {it_mg}, jacobi {it_jacobi}, identity {it_id}");
+    let a = grid.assemble().unwrap();
+    let it_ic0 = iterations(n, &mut IncompleteCholesky::new(&a).unwrap());
+    eprintln!("n = 32: multigrid {it_mg}, jacobi {it_jacobi}, identity {it_id}, IC(0) {it_ic0}");
+    assert!(it_ic0 < it_jacobi && it_ic0 > it_mg, "IC(0) {it_ic0}");
     assert!(it_mg <= 12, "multigrid {it_mg}");
     assert!(it_jacobi >= 60, "jacobi {it_jacobi}");
 }
