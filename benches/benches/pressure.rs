@@ -7,13 +7,13 @@
 //!   hierarchy) plus the multigrid-preconditioned CG solve, timed together.
 //!
 //! Before the criterion groups, the binary prints to stderr one timed solve per preconditioner
-//! (identity, Jacobi, multigrid) at n = 32, 64 and 128: set-up + solve seconds, iterations and
+//! (identity, Jacobi, IC(0), multigrid) at n = 32, 64 and 128: set-up + solve seconds, iterations and
 //! the true final relative residual. Run with `cargo bench -p mpm-benches --bench pressure`.
 
 use criterion::{Criterion, SamplingMode};
 use mpm_linalg::{
-    conjugate_gradient, CgParams, CgWorkspace, Identity, Jacobi, LinearOperator,
-    MultigridPreconditioner, PoissonGrid, PoissonOperator, Preconditioner,
+    conjugate_gradient, CgParams, CgWorkspace, Identity, IncompleteCholesky, Jacobi,
+    LinearOperator, MultigridPreconditioner, PoissonGrid, PoissonOperator, Preconditioner,
 };
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -50,6 +50,8 @@ fn standard_normal(n: usize) -> Vec<f64> {
 enum Method {
     Identity,
     Jacobi,
+    /// IC(0) on the assembled matrix (assembly and factorisation are set-up).
+    Ic0,
     Multigrid,
 }
 
@@ -61,6 +63,9 @@ fn solve(n: usize, method: Method, b: &[f64]) -> (u32, f64) {
     let mut precond: Box<dyn Preconditioner<f64>> = match method {
         Method::Identity => Box::new(Identity),
         Method::Jacobi => Box::new(Jacobi::from_inverse_diagonal(vec![1.0 / 6.0; b.len()])),
+        Method::Ic0 => Box::new(
+            IncompleteCholesky::new(&grid.assemble().expect("assembles")).expect("IC(0) exists"),
+        ),
         Method::Multigrid => Box::new(MultigridPreconditioner::new(&grid)),
     };
     let mut x = vec![0.0; b.len()];
@@ -94,7 +99,12 @@ fn comparison_table() {
     eprintln!("|---|---|---|---|---|");
     for n in [32, 64, 128] {
         let b = standard_normal(n * n * n);
-        for method in [Method::Identity, Method::Jacobi, Method::Multigrid] {
+        for method in [
+            Method::Identity,
+            Method::Jacobi,
+            Method::Ic0,
+            Method::Multigrid,
+        ] {
             let start = Instant::now();
             let (iterations, relres) = solve(n, method, &b);
             let seconds = start.elapsed().as_secs_f64();
