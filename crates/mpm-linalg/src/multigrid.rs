@@ -693,7 +693,10 @@ fn prolong_add<const D: usize>(
 
 /// Geometric multigrid V-cycle on the labelled grid of a [`PoissonGrid`], as a
 /// [`Preconditioner<f64>`] of its operator (one value per fluid cell in cell order): one cycle
-/// from a zero guess per application (see the [module documentation](self) for the pieces).
+/// from a zero guess per application. Coarse labels: air over fluid over solid; coarse operators:
+/// the stencil re-discretised at twice the spacing (coefficient / 4); prolongation multilinear
+/// between cell centres, restriction its transpose over `2^D`; damped-Jacobi smoothing, the same
+/// sweeps before and after; a fixed number of sweeps on the coarsest level.
 /// Symmetric positive definite on the unknowns with at least one non-solid neighbour, so it
 /// keeps CG valid. The hierarchy and every level vector are built once; applying it allocates
 /// nothing.
@@ -712,8 +715,9 @@ impl<const D: usize> MultigridPreconditioner<D> {
         Self::with_params(grid, MultigridParams::default())
     }
 
-    /// The preconditioner of `grid` with `params` (out-of-range values are clamped into their
-    /// documented ranges).
+    /// The preconditioner of `grid` with `params` (out-of-range sweep and size values are
+    /// clamped into their documented ranges; a damping outside (0, 1) falls back to the
+    /// default).
     pub fn with_params(grid: &PoissonGrid<D>, params: MultigridParams) -> Self {
         let params = MultigridParams {
             smoothing_sweeps: params.smoothing_sweeps.max(1),
