@@ -107,3 +107,83 @@ impl<T: Unknown> Preconditioner<T> for Jacobi<T> {
         Some(self.inv_diag.len() * T::LEN)
     }
 }
+
+/// Incomplete Cholesky with no fill, IC(0): `M = L Lᵀ` with `L` restricted to the lower
+/// pattern of the matrix. Built from a [`SymmetricMatrix`] (scalar entries, whatever the block
+/// size); applied by a forward and a backward triangular solve, serially, so it is
+/// deterministic but does not use more than one thread.
+#[derive(Clone, Debug)]
+pub struct IncompleteCholesky {
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    /// `L` in the matrix's lower CSC layout (diagonal first in each column).
+    values: Vec<f64>,
+}
+
+impl IncompleteCholesky {
+    /// Factorises `matrix`. Fails with [`CgError::NonPositiveDiagonal`] when a pivot is not
+    /// positive (IC(0) exists for M-matrices such as the Poisson ones, not for every SPD
+    /// matrix).
+    pub fn new(matrix: &SymmetricMatrix) -> Result<Self, CgError> {
+        let pattern = matrix.pattern();
+        let col_ptr = pattern.col_ptr().to_vec();
+        let row_idx = pattern.row_idx().to_vec();
+        let mut values = matrix.values().to_vec();
+        for j in 0..pattern.dim() {
+            let (start, end) = (col_ptr[j], col_ptr[j + 1]);
+            let d = values[start];
+            if d <= 0.0 || !d.is_finite() {
+                return Err(CgError::NonPositiveDiagonal { index: j, value: d });
+            }
+            let ljj = d.sqrt();
+            values[start] = ljj;
+            for p in start + 1..end {
+                values[p] /= ljj;
+            }
+            // Right-looking update of the later columns, kept inside the pattern.
+            for q in start + 1..end {
+                let (k, lkj) = (row_idx[q], values[q]);
+                for p in q..end {
+                    if let Some(s) = pattern.slot(row_idx[p], k) {
+                        values[s] -= values[p] * lkj;
+                    }
+                }
+            }
+        }
+        Ok(Self {
+            col_ptr,
+            row_idx,
+            values,
+        })
+    }
+
+    /// The number of unknowns.
+    pub fn dim(&self) -> usize {
+        self.col_ptr.len() - 1
+    }
+}
+
+impl Preconditioner<f64> for IncompleteCholesky {
+    fn apply(&mut self, r: &[f64], z: &mut [f64]) {
+        z.copy_from_slice(r);
+        let (cp, ri, v) = (&self.col_ptr, &self.row_idx, &self.values);
+        for j in 0..self.dim() {
+            z[j] /= v[cp[j]];
+            let zj = z[j];
+            for p in cp[j] + 1..cp[j + 1] {
+                z[ri[p]] -= v[p] * zj;
+            }
+        }
+        for j in (0..self.dim()).rev() {
+            let mut s = z[j];
+            for p in cp[j] + 1..cp[j + 1] {
+                s -= v[p] * z[ri[p]];
+            }
+            z[j] = s / v[cp[j]];
+        }
+    }
+
+    fn scalar_dim(&self) -> Option<usize> {
+        Some(self.dim())
+    }
+}

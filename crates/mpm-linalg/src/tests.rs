@@ -4,8 +4,17 @@ use crate::*;
 use nalgebra::{DVector, Vector2};
 
 /// `n` deterministic, irregular numbers in [−1, 1]: `sin(seed · (i + 1)²)`.
-fn samples(seed: f64, n: usize) -> Vec<f64> {
+pub(crate) fn samples(seed: f64, n: usize) -> Vec<f64> {
     (1..=n).map(|i| (seed * (i * i) as f64).sin()).collect()
+}
+
+/// Runs `f` in a rayon pool of `threads` threads.
+pub(crate) fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
 }
 
 /// Couplings of the 5-point stencil on an `nx × ny` grid of unknowns, node `i + nx j`.
@@ -517,11 +526,7 @@ fn a_given_initial_guess_is_used() {
 fn solutions_are_bitwise_equal_for_one_and_two_threads() {
     let (nx, ny) = (64, 64);
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        in_pool(threads, || {
             let mut a = poisson(nx, ny, 1.0 / 65.0);
             let b = samples(0.7, nx * ny);
             let mut jacobi = Jacobi::new();
