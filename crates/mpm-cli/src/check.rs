@@ -110,13 +110,13 @@ where
     let bound = s.dt_bound();
     let dt_text = match sc.simulation.time_step {
         TimeStepDef::Adaptive { dt_max, .. } => format!(
-            "stable bound {} at start {:.3e} s, so dt = {:.3e} s",
+            "cfl · ({}) at start = {:.3e} s, so dt = {:.3e} s",
             bound.description,
             stable,
             stable.min(dt_max)
         ),
         TimeStepDef::Fixed { dt } => format!(
-            "stable bound {} at start {stable:.3e} s{}",
+            "stable bound {} at start = {stable:.3e} s{}",
             bound.description,
             if dt > stable && bound.limits_fixed_dt {
                 ": the fixed dt is ABOVE IT"

@@ -518,8 +518,8 @@ where
         plan.push(
             Stage::P2G,
             format!(
-                "{:?} transfer on the reference grid ({} fixed region(s)){}",
-                p.transfer,
+                "{} transfer on the reference grid ({} fixed region(s)){}",
+                format!("{:?}", p.transfer).to_uppercase(),
                 p.fixed.len(),
                 if p.transfer == Transfer::Persistent {
                     "; first step only, node velocities persist"

@@ -599,7 +599,7 @@ where
 crate::core::solver_seam!(
     ImplicitTlmpm,
     "implicit TLMPM (backward Euler, Newton)",
-    "dx/max|v|: backward Euler has no wave-speed limit",
+    "dx / max|v| (backward Euler has no wave-speed limit)",
     false
 );
 
