@@ -12,12 +12,13 @@ for s in scenes/*.toml; do
   name=$(basename "$s" .toml)
   # (no scene in scenes/ reads a file by a relative path, so the copy can live elsewhere)
   sed -E "s/^end_time *= *[0-9.eE+-]+/end_time = $end/" "$s" > "$tmp/$name.toml"
-  start=$(date +%s.%N)
+  start=$(date +%s%N)
   if "$bin" run "$tmp/$name.toml" --out "$out/$name" --threads "$threads" --quiet >/dev/null 2>"$out/$name.log"; then
     st=ok
   else
     st="exit $?"
   fi
-  printf '%-40s %s %.1f s\n' "$name" "$st" "$(echo "$(date +%s.%N) - $start" | bc)"
+  ms=$(( ($(date +%s%N) - start) / 1000000 ))
+  printf '%-40s %s %d.%03d s\n' "$name" "$st" $((ms / 1000)) $((ms % 1000))
 done
 rm -rf "$tmp"
