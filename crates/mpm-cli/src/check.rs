@@ -64,12 +64,8 @@ where
             }
         );
     }
-    if phases > 1 {
-        let _ = writeln!(
-            o,
-            "phases:     {phases} grids, {} coupling(s)",
-            sc.explicit().map_or(0, |e| e.couplings.len())
-        );
+    for n in &b.notes {
+        let _ = writeln!(o, "{n}");
     }
     for (k, (def, m)) in sc.materials.iter().zip(s.materials()).enumerate() {
         let detail = match m {
@@ -130,9 +126,6 @@ where
         let _ = writeln!(o, "  {:>2}. {} — {}", i + 1, st.stage, st.detail);
     }
     let _ = writeln!(o, "time step:  {dt_text}");
-    for n in &b.notes {
-        let _ = writeln!(o, "note:       {n}");
-    }
     let stop = match sc.simulation.duration {
         Duration::EndTime { end_time } => format!("at t = {end_time} s"),
         Duration::Steps { steps } => format!("after {steps} steps"),

@@ -153,7 +153,7 @@ fn check_prints_only_the_tlmpm_stages_a_scene_runs() {
     let cantilever = plan("c.toml", CANTILEVER);
     assert!(cantilever.contains("implicit TLMPM"));
     assert!(cantilever.contains("solve — Newton"), "{cantilever}");
-    assert!(cantilever.contains("load \"tip\""), "{cantilever}");
+    assert!(cantilever.contains("load:       \"tip\""), "{cantilever}");
     assert!(!cantilever.contains("contact"), "{cantilever}");
     assert!(!cantilever.contains("reference_update"), "{cantilever}");
     let snow = plan("s.toml", TLMPM_SNOW_2D);

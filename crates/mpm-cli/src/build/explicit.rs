@@ -152,6 +152,17 @@ fn uncoupled_phases(sc: &Scene, own: &ExplicitScene) -> Vec<String> {
         .collect()
 }
 
+/// The `check` line on the phases of a multi-grid scene; none for one phase.
+fn phase_note(phases: u32, couplings: usize) -> Vec<String> {
+    if phases > 1 {
+        vec![format!(
+            "phases:     {phases} grids, {couplings} coupling(s)"
+        )]
+    } else {
+        Vec::new()
+    }
+}
+
 /// Builds the explicit MLS-MPM solver from the sampled scene: initial volumes from the grid
 /// density if the scene asks for them, then the solver with its own validation, and the
 /// start-up warnings (unused materials, uncoupled phases).
@@ -195,7 +206,7 @@ where
         solver: Box::new(solver),
         bodies,
         warnings,
-        notes: Vec::new(),
+        notes: phase_note(sc.phase_count(), own.couplings.len()),
     })
 }
 

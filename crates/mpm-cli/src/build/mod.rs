@@ -46,7 +46,8 @@ pub struct Built<const D: usize> {
     pub bodies: Vec<BodyInfo>,
     /// Warnings to print at start (e.g. a fixed dt above the stable bound).
     pub warnings: Vec<String>,
-    /// Scene-level facts the solver does not know, for `check` (e.g. load names).
+    /// Scene-level facts the solver does not know, as whole lines for `check` (e.g. the phases
+    /// and couplings, or the loads by name).
     pub notes: Vec<String>,
 }
 

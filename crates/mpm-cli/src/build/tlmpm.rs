@@ -189,7 +189,7 @@ where
     let notes = own
         .loads
         .iter()
-        .map(|l| format!("load \"{}\": {:?} N", l.name, l.force))
+        .map(|l| format!("load:       \"{}\": {:?} N", l.name, l.force))
         .collect();
     Ok(Built {
         solver,
