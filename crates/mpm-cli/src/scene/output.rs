@@ -2,6 +2,7 @@
 
 use super::simulation::Duration;
 use super::Checker;
+use mpm_core::columns::PARTICLE_COLUMN_NAMES;
 use mpm_core::Columns;
 use serde::{Deserialize, Serialize};
 
@@ -108,21 +109,11 @@ pub(super) fn resolve_output(
         Some(list) => {
             let mut out: Vec<String> = Vec::new();
             for (i, f) in list.iter().enumerate() {
-                let all = [
-                    "x",
-                    "v",
-                    "mass",
-                    "volume0",
-                    "material",
-                    "affine",
-                    "F",
-                    "J",
-                    "plastic",
-                    "phase",
-                    "phi_eff",
-                    "concentration",
-                    "pressure",
-                ];
+                let all: Vec<&str> = PARTICLE_COLUMN_NAMES
+                    .iter()
+                    .copied()
+                    .chain(["pressure"])
+                    .collect();
                 if !all.contains(&f.as_str()) {
                     c.err(
                         &format!("output.fields[{i}]"),
