@@ -31,10 +31,13 @@ pub enum Stage {
     Contact,
     /// Coupling between phase grids, then boundary conditions on every phase grid.
     Coupling,
-    /// A grid solve: Newton's method (implicit) or the explicit node update.
+    /// A grid solve: Newton's method (implicit), the explicit node update, or the pressure
+    /// projection (DIQ).
     Solve,
     /// Grid-to-particle transfer, deformation update and advection.
     G2P,
+    /// Volume-preserving particle position correction (DIQ fluid, Kugelstadt et al. 2019).
+    PositionCorrection,
     /// Writing accepted particle updates.
     Commit,
     /// A-ULMPM reference configuration update.
@@ -43,7 +46,7 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in the order a step would run them.
-    pub const ALL: [Stage; 14] = [
+    pub const ALL: [Stage; 15] = [
         Stage::Reference,
         Stage::TimeStep,
         Stage::Sort,
@@ -56,6 +59,7 @@ impl Stage {
         Stage::Coupling,
         Stage::Solve,
         Stage::G2P,
+        Stage::PositionCorrection,
         Stage::Commit,
         Stage::ReferenceUpdate,
     ];
@@ -75,6 +79,7 @@ impl Stage {
             Stage::Coupling => "coupling",
             Stage::Solve => "solve",
             Stage::G2P => "g2p",
+            Stage::PositionCorrection => "position_correction",
             Stage::Commit => "commit",
             Stage::ReferenceUpdate => "reference_update",
         }

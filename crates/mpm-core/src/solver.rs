@@ -358,6 +358,17 @@ pub struct DtBound {
     pub limits_fixed_dt: bool,
 }
 
+/// A named scalar of the state that a run tracks over time, e.g. the fluid volume.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Monitor {
+    /// Name, e.g. `fluid_volume`.
+    pub name: &'static str,
+    /// Unit, e.g. `m^3`.
+    pub unit: &'static str,
+    /// Value, in `unit`.
+    pub value: Real,
+}
+
 /// One solver, as the CLI, the validation crate and the benchmarks drive it. `D` is the
 /// dimension (2 or 3).
 pub trait Solver<const D: usize>: fmt::Debug
@@ -406,6 +417,12 @@ where
     /// Restores a state saved by [`Solver::checkpoint`] (possibly by another process with the
     /// same set-up), checking that it fits this set-up.
     fn restore(&mut self, state: &SolverState) -> Result<(), RestoreError>;
+
+    /// Scalars of the current state worth tracking over a run (the CLI records their initial,
+    /// final, minimum and maximum values in `summary.json`); none by default.
+    fn monitors(&self) -> Vec<Monitor> {
+        Vec::new()
+    }
 
     /// The per-particle fields this solver can write.
     fn output_fields(&self) -> Vec<FieldInfo> {

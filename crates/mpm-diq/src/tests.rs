@@ -1,0 +1,404 @@
+//! Tests of the DIQ fluid: the assembled system, hydrostatics, divergence, volume, determinism.
+
+use crate::fluid::{DiqFluid, DiqParams};
+use crate::pressure::{PressureMethod, PressureParams, PressureSystem, UnknownKind};
+use mpm_core::boundary::{Boundaries, Contact, DomainWalls};
+use mpm_core::material::{FluidMaterial, Tait};
+use mpm_core::{
+    Columns, GridSpec, Material, ParticleInit, Particles, Real, Solver, StepError, TimeStepPolicy,
+    Vector,
+};
+
+const RHO: Real = 1000.0;
+
+fn water() -> Material {
+    Material::Fluid(FluidMaterial {
+        density: RHO,
+        eos: Tait {
+            bulk_modulus: 2e6,
+            gamma: 7.0,
+        },
+        viscosity: 0.0,
+    })
+}
+
+/// `per_axis^D` particles per cell on a lattice filling the box `[lo, hi]`, velocity `v(x)`.
+fn block<const D: usize>(
+    lo: [Real; D],
+    hi: [Real; D],
+    dx: Real,
+    per_axis: usize,
+    v: impl Fn(&Vector<D>) -> Vector<D>,
+) -> Particles<D> {
+    let h = dx / per_axis as Real;
+    let counts: [usize; D] = std::array::from_fn(|a| ((hi[a] - lo[a]) / h).round() as usize);
+    let total: usize = counts.iter().product();
+    let mut ps = Particles::new(Columns::default());
+    for i in 0..total {
+        let mut rest = i;
+        let x = Vector::<D>::from_fn(|a, _| {
+            let k = rest % counts[a];
+            rest /= counts[a];
+            lo[a] + (k as Real + 0.5) * h
+        });
+        ps.push(ParticleInit {
+            x,
+            v: v(&x),
+            mass: RHO * h.powi(D as i32),
+            volume0: h.powi(D as i32),
+            material: 0,
+            affine: mpm_core::Matrix::<D>::zeros(),
+        });
+    }
+    ps
+}
+
+fn walls<const D: usize>() -> Boundaries<D> {
+    Boundaries {
+        walls: Some(DomainWalls {
+            contact: Contact::default(),
+            thickness: 1,
+        }),
+        colliders: Vec::new(),
+    }
+}
+
+/// A grid of `cells` cells of `dx` per axis inside the walls (one wall layer outside).
+fn grid<const D: usize>(cells: [usize; D], dx: Real) -> GridSpec<D> {
+    GridSpec::new(
+        Vector::<D>::from_element(-dx),
+        dx,
+        std::array::from_fn(|a| cells[a] + 3),
+    )
+}
+
+fn params<const D: usize>(dt_max: Real, correction: bool) -> DiqParams<D> {
+    DiqParams {
+        time_step: TimeStepPolicy::Adaptive {
+            cfl: 0.4,
+            dt_max,
+            dt_min: 1e-9,
+        },
+        position_correction: correction,
+        ..DiqParams::default()
+    }
+}
+
+/// A 2D column of height `h` filling the width of a 1 m box, at rest.
+fn column(n: usize, h: Real, method: PressureMethod) -> DiqFluid<2> {
+    let dx = 1.0 / n as Real;
+    let mut p = params::<2>(1e-2, true);
+    p.pressure.method = method;
+    DiqFluid::new(
+        grid([n, n], dx),
+        p,
+        vec![water()],
+        walls(),
+        block([0.0, 0.0], [1.0, h], dx, 2, |_| Vector::<2>::zeros()),
+    )
+    .unwrap()
+}
+
+#[test]
+fn assembled_matrix_is_symmetric_positive_and_equals_dense_schur_complement() {
+    // A swirling 2D blob with a free surface: dense J M⁻¹ Jᵀ against the assembled matrix.
+    let dx = 1.0 / 12.0;
+    let fluid = DiqFluid::new(
+        grid([12, 12], dx),
+        params::<2>(1e-2, false),
+        vec![water()],
+        walls(),
+        block([0.0, 0.0], [0.5, 0.5], dx, 2, |x| {
+            Vector::<2>::new(-(x[1] - 0.25), x[0] - 0.25)
+        }),
+    )
+    .unwrap();
+    let ps = fluid.particles();
+    let bins = fluid.bin(&ps.x);
+    let nodes = fluid.transfer(&ps.x, &ps.v, &ps.affine, &bins, true);
+    let (rows, _) = fluid.constraints(&ps.x, &bins, &nodes.mass, 0.0);
+    assert!(rows.kinds.contains(&UnknownKind::Wall));
+    assert!(!rows.pin_gauge, "a blob with air above has a free surface");
+    let dt = 1e-3;
+    let mut system = PressureSystem::<2>::new();
+    system
+        .assemble(
+            &rows,
+            &nodes.inv_mass,
+            dt,
+            &PressureParams::default(),
+            &fluid.solid_cell(),
+        )
+        .unwrap();
+    let a = system.matrix().unwrap().to_dense();
+    let n = rows.len();
+    // Dense J (n × 2·nodes).
+    let nn = nodes.mass.len();
+    let mut j = nalgebra::DMatrix::<Real>::zeros(n, 2 * nn);
+    for k in 0..n {
+        let (nodes_k, coeffs) = rows.row(k);
+        for (node, r) in nodes_k.iter().zip(coeffs) {
+            for a in 0..2 {
+                j[(k, 2 * node + a)] += r[a];
+            }
+        }
+    }
+    let minv = nalgebra::DMatrix::<Real>::from_diagonal(&nalgebra::DVector::from_iterator(
+        2 * nn,
+        (0..2 * nn).map(|i| nodes.inv_mass[i / 2]),
+    ));
+    let dense = &j * minv * j.transpose() * dt;
+    let scale = dense.amax();
+    assert!(
+        (&a - &dense).amax() <= 1e-12 * scale,
+        "assembled ≠ Δt J M⁻¹ Jᵀ"
+    );
+    assert!(
+        (&a - a.transpose()).amax() <= 1e-14 * scale,
+        "not symmetric"
+    );
+    // Positive on random vectors, and definite: the smallest eigenvalue is positive.
+    let mut seed = 7u64;
+    for _ in 0..20 {
+        let x = nalgebra::DVector::<Real>::from_fn(n, |_, _| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+            (seed >> 11) as Real / (1u64 << 53) as Real - 0.5
+        });
+        assert!((x.transpose() * &a * &x)[(0, 0)] > 0.0);
+    }
+    let eig = nalgebra::SymmetricEigen::new(a.clone()).eigenvalues;
+    assert!(
+        eig.min() > 1e-10 * eig.max(),
+        "min eigenvalue {}",
+        eig.min()
+    );
+}
+
+#[test]
+fn hydrostatic_column_stays_at_rest_with_linear_pressure() {
+    let (n, h, g) = (32, 0.5, 9.81);
+    let mut fluid = column(n, h, PressureMethod::IncompleteCholesky);
+    let mut t = 0.0;
+    while t < 1.0 - 1e-12 {
+        let info = fluid.advance().unwrap();
+        t = info.time;
+        assert_eq!(info.solves[0].name, "pressure");
+        assert!(info.solves[0].residual <= 1e-8);
+    }
+    let ps = fluid.particles();
+    let vmax = ps.v.iter().map(|v| v.norm()).fold(0.0, Real::max);
+    assert!(vmax < 1e-6 * (g * h).sqrt(), "spurious velocity {vmax:e}");
+    // Pressure of each particle's cell against ρ g (h − y_cell) below the surface cell.
+    let dx = 1.0 / n as Real;
+    let mut worst: Real = 0.0;
+    for (x, p) in ps.x.iter().zip(fluid.particle_pressure()) {
+        let yc = ((x[1] / dx).floor() + 0.5) * dx;
+        if yc < h - dx {
+            worst = worst.max((p - RHO * g * (h - yc)).abs());
+        }
+    }
+    assert!(worst < 0.02 * RHO * g * h, "hydrostatic error {worst} Pa");
+}
+
+#[test]
+fn projection_leaves_divergence_at_solver_tolerance() {
+    for method in [
+        PressureMethod::Jacobi,
+        PressureMethod::IncompleteCholesky,
+        PressureMethod::Multigrid,
+        PressureMethod::Cholesky,
+    ] {
+        let dx = 1.0 / 24.0;
+        let mut p = params::<2>(1e-3, false);
+        p.pressure.method = method;
+        let u = 1.0;
+        let mut fluid = DiqFluid::new(
+            grid([24, 24], dx),
+            p,
+            vec![water()],
+            walls(),
+            block([0.0, 0.0], [0.5, 0.5], dx, 2, |x| {
+                Vector::<2>::new(u * (x[1] * 7.0).sin(), u * (x[0] * 5.0).cos())
+            }),
+        )
+        .unwrap();
+        for _ in 0..3 {
+            let info = fluid.advance().unwrap();
+            assert!(info.solves[0].residual <= 1e-8, "{method:?}");
+        }
+        // The cell divergence relative to the flow's own scale U/Δx.
+        let worst = fluid
+            .particle_divergence()
+            .iter()
+            .fold(0.0, |m: Real, d| m.max(d.abs()));
+        assert!(
+            worst * dx / u < 1e-6,
+            "{method:?}: divergence {worst:e} 1/s"
+        );
+    }
+}
+
+#[test]
+fn free_surface_pressure_vanishes_and_enclosed_fluid_is_pinned() {
+    let mut fluid = column(16, 0.5, PressureMethod::Multigrid);
+    fluid.advance().unwrap();
+    // Top cell pressure is at most ρ g Δx (the surface cell's own depth), bottom ≈ ρ g h.
+    let dx = 1.0 / 16.0;
+    let ps = fluid.particles();
+    let top =
+        ps.x.iter()
+            .zip(fluid.particle_pressure())
+            .filter(|(x, _)| x[1] > 0.5 - dx)
+            .fold(0.0, |m: Real, (_, p)| m.max(p.abs()));
+    assert!(top <= RHO * 9.81 * dx, "surface cell pressure {top} Pa");
+    // A box filled to the walls: no free surface, the gauge is pinned.
+    let full = DiqFluid::new(
+        grid([8, 8], 0.125),
+        params::<2>(1e-3, false),
+        vec![water()],
+        walls(),
+        block([0.0, 0.0], [1.0, 1.0], 0.125, 2, |_| Vector::<2>::zeros()),
+    )
+    .unwrap();
+    let ps = full.particles();
+    let bins = full.bin(&ps.x);
+    let nodes = full.transfer(&ps.x, &ps.v, &ps.affine, &bins, false);
+    let (rows, _) = full.constraints(&ps.x, &bins, &nodes.mass, 0.0);
+    assert!(rows.pin_gauge);
+    let ps = fluid.particles();
+    let bins = fluid.bin(&ps.x);
+    let nodes = fluid.transfer(&ps.x, &ps.v, &ps.affine, &bins, false);
+    assert!(
+        !fluid
+            .constraints(&ps.x, &bins, &nodes.mass, 0.0)
+            .0
+            .pin_gauge
+    );
+}
+
+#[test]
+fn capped_cg_is_a_typed_solve_error() {
+    let dx = 1.0 / 16.0;
+    let mut p = params::<2>(1e-3, false);
+    p.pressure.max_iterations = 1;
+    p.pressure.method = PressureMethod::Jacobi;
+    let mut fluid = DiqFluid::new(
+        grid([16, 16], dx),
+        p,
+        vec![water()],
+        walls(),
+        block([0.0, 0.0], [0.5, 0.5], dx, 2, |_| Vector::<2>::zeros()),
+    )
+    .unwrap();
+    let x0 = fluid.particles().x.clone();
+    match fluid.advance() {
+        Err(StepError::Solve { stage, source, .. }) => {
+            assert_eq!(stage, mpm_core::Stage::Solve);
+            assert!(source.to_string().contains("did not converge"), "{source}");
+        }
+        other => panic!("expected a solve error, got {other:?}"),
+    }
+    assert_eq!(fluid.particles().x, x0, "a failed step changes nothing");
+}
+
+/// 2D dam break: a 0.4 × 0.6 m block in the corner of a 1 m box.
+fn dam_break(n: usize, correction: bool) -> DiqFluid<2> {
+    let dx = 1.0 / n as Real;
+    DiqFluid::new(
+        grid([n, n], dx),
+        params::<2>(1e-2, correction),
+        vec![water()],
+        walls(),
+        block([0.0, 0.0], [0.4, 0.6], dx, 2, |_| Vector::<2>::zeros()),
+    )
+    .unwrap()
+}
+
+#[test]
+fn position_correction_bounds_volume_drift() {
+    let run = |correction| {
+        let mut f = dam_break(32, correction);
+        let v0 = f.fluid_volume();
+        let mut worst: Real = 0.0;
+        while f.time() < 0.6 {
+            f.advance().unwrap();
+            let d = f.fluid_volume() / v0 - 1.0;
+            worst = worst.max(d.abs());
+        }
+        worst
+    };
+    let with = run(true);
+    let without = run(false);
+    assert!(with <= 0.01, "drift with correction {with}");
+    assert!(with < without, "correction {with} vs none {without}");
+}
+
+#[test]
+fn bitwise_identical_across_threads_and_resume() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut f = dam_break(24, true);
+            for _ in 0..15 {
+                f.advance().unwrap();
+            }
+            let state = f.checkpoint();
+            for _ in 0..15 {
+                f.advance().unwrap();
+            }
+            (state, f.checkpoint())
+        })
+    };
+    let (mid1, end1) = run(1);
+    let (_, end2) = run(2);
+    assert_eq!(end1, end2, "1 vs 2 threads");
+    let mut resumed = dam_break(24, true);
+    resumed.restore(&mid1).unwrap();
+    for _ in 0..15 {
+        resumed.advance().unwrap();
+    }
+    assert_eq!(resumed.checkpoint(), end1, "resume from checkpoint");
+}
+
+#[test]
+fn three_dimensional_column_is_hydrostatic() {
+    let n = 8;
+    let dx = 1.0 / n as Real;
+    let h = 0.5;
+    let mut fluid = DiqFluid::new(
+        grid([n, n, n], dx),
+        params::<3>(2e-2, true),
+        vec![water()],
+        walls(),
+        block([0.0, 0.0, 0.0], [1.0, 1.0, h], dx, 2, |_| {
+            Vector::<3>::zeros()
+        }),
+    )
+    .unwrap();
+    for _ in 0..20 {
+        fluid.advance().unwrap();
+    }
+    let vmax = fluid
+        .particles()
+        .v
+        .iter()
+        .map(|v| v.norm())
+        .fold(0.0, Real::max);
+    assert!(
+        vmax < 1e-6 * (9.81 * h).sqrt(),
+        "spurious velocity {vmax:e}"
+    );
+    let bottom = fluid
+        .particles()
+        .x
+        .iter()
+        .zip(fluid.particle_pressure())
+        .filter(|(x, _)| x[2] < dx)
+        .map(|(_, p)| *p)
+        .fold(0.0, Real::max);
+    let exact = RHO * 9.81 * (h - 0.5 * dx);
+    assert!((bottom - exact).abs() < 0.02 * exact, "{bottom} vs {exact}");
+}
