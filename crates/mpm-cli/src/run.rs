@@ -177,12 +177,54 @@ struct Runner<'a, const D: usize> {
     first_time: f64,
     io_seconds: f64,
     checkpoints_written: Vec<String>,
+    /// The solver's monitors (e.g. the fluid volume): value at t = 0 and extremes over the
+    /// snapshots of this run.
+    monitors: Vec<MonitorStats>,
+}
+
+/// One monitor of the solver over a run.
+#[derive(Clone, Debug)]
+struct MonitorStats {
+    name: &'static str,
+    unit: &'static str,
+    initial: f64,
+    last: f64,
+    min: f64,
+    max: f64,
+}
+
+impl MonitorStats {
+    fn json(&self) -> serde_json::Value {
+        let rel = |v: f64| {
+            if self.initial != 0.0 {
+                json!(v / self.initial - 1.0)
+            } else {
+                serde_json::Value::Null
+            }
+        };
+        let worst = if (self.min - self.initial).abs() > (self.max - self.initial).abs() {
+            self.min
+        } else {
+            self.max
+        };
+        json!({
+            "unit": self.unit,
+            "initial": self.initial,
+            "final": self.last,
+            "min": self.min,
+            "max": self.max,
+            "relative_drift": rel(self.last),
+            "max_relative_deviation": rel(worst),
+        })
+    }
 }
 
 /// Names of checkpoint attributes.
 const ATTR_FRAME: &str = "next_frame";
 const ATTR_NEXT_SNAPSHOT: &str = "next_snapshot";
 const ATTR_NEXT_CHECKPOINT: &str = "next_checkpoint";
+/// Prefix of the checkpoint attributes holding each monitor's value at t = 0.
+const ATTR_INITIAL_MONITOR: &str = "initial_monitor_";
 const ATTR_INITIAL: [&str; 8] = [
     "initial_mass",
     "initial_momentum_0",
@@ -241,7 +283,21 @@ where
             solves: BTreeMap::new(),
             io_seconds: 0.0,
             checkpoints_written: Vec::new(),
+            monitors: Vec::new(),
         };
+        r.monitors = r
+            .solver
+            .monitors()
+            .into_iter()
+            .map(|m| MonitorStats {
+                name: m.name,
+                unit: m.unit,
+                initial: m.value,
+                last: m.value,
+                min: m.value,
+                max: m.value,
+            })
+            .collect();
         match &opts.resume {
             Some(ckpt) => r.resume(ckpt)?,
             None => r.clean_stale_outputs(),
@@ -342,6 +398,13 @@ where
                 self.initial.potential_energy = p[2];
             }
         }
+        for m in &mut self.monitors {
+            let now = m.last;
+            if let Some(v) = attr(&format!("{ATTR_INITIAL_MONITOR}{}", m.name)) {
+                m.initial = v;
+            }
+            (m.min, m.max) = (m.initial.min(now), m.initial.max(now));
+        }
         // Keep the snapshots written before the checkpoint; later ones are rewritten.
         for (n, p) in numbered_files(&self.out, "snap_") {
             if n >= self.frame {
@@ -414,6 +477,11 @@ where
             fields: fields.iter().map(|f| f.spec()).collect(),
         });
         write_xdmf(&self.out.join("run.xmf"), &self.series)?;
+        for (stats, m) in self.monitors.iter_mut().zip(self.solver.monitors()) {
+            stats.last = m.value;
+            stats.min = stats.min.min(m.value);
+            stats.max = stats.max.max(m.value);
+        }
         self.frame += 1;
         self.last_snapshot_step = Some(self.solver.steps());
         self.io_seconds += t.elapsed().as_secs_f64();
@@ -453,6 +521,9 @@ where
             i.potential_energy,
         ]) {
             attrs.push((n.to_string(), v));
+        }
+        for m in &self.monitors {
+            attrs.push((format!("{ATTR_INITIAL_MONITOR}{}", m.name), m.initial));
         }
         let name = checkpoint_name(self.solver.steps());
         let header = self.header(FileKind::Checkpoint, attrs);
@@ -654,6 +725,18 @@ where
                 ));
             }
         }
+        for m in &self.monitors {
+            out.push_str(&format!(
+                "{}: initial {:.6e} {}, final {:.6e} (drift {:+.3e}), range [{:.6e}, {:.6e}] over snapshots\n",
+                m.name,
+                m.initial,
+                m.unit,
+                m.last,
+                m.last / m.initial - 1.0,
+                m.min,
+                m.max
+            ));
+        }
         out.push_str(&format!(
             "summary: {}\n",
             self.out.join("summary.json").display()
@@ -720,6 +803,11 @@ where
             "dt": dt,
             "retries": self.retries,
             "solves": solves,
+            "monitors": self
+                .monitors
+                .iter()
+                .map(|m| (m.name.to_string(), m.json()))
+                .collect::<serde_json::Map<String, serde_json::Value>>(),
             "snapshots": self.frame,
             "checkpoints": self.checkpoints_written,
             "wall_time": {

@@ -23,6 +23,8 @@ pub(crate) struct Owned {
     pub tables: &'static [&'static str],
     /// Its keys inside the common tables ([`SolverTables::KEYS`]).
     pub keys: &'static [&'static str],
+    /// The output fields only it computes ([`SolverTables::FIELDS`]).
+    pub fields: &'static [&'static str],
 }
 
 impl Owned {
@@ -92,6 +94,7 @@ macro_rules! solvers {
             kind: SolverKind::$kind,
             tables: <crate::scene::$module::$part as SolverTables>::TABLES,
             keys: <crate::scene::$module::$part as SolverTables>::KEYS,
+            fields: <crate::scene::$module::$part as SolverTables>::FIELDS,
         },)+];
 
         impl SolverScene {
@@ -116,6 +119,15 @@ macro_rules! solvers {
                             .map(SolverScene::$kind)
                     })+
                     $(SolverKind::$rkind => None,)*
+                }
+            }
+
+            /// The output fields only this solver computes.
+            pub(crate) fn fields(&self) -> &'static [&'static str] {
+                match self {
+                    $(SolverScene::$kind(_) => {
+                        <crate::scene::$module::$part as SolverTables>::FIELDS
+                    })+
                 }
             }
 
@@ -158,10 +170,10 @@ solvers! {
         Explicit = "explicit" => explicit::ExplicitScene,
         /// Total-Lagrangian MPM (`mpm-tlmpm`), implicit or explicit; see `[tlmpm]`.
         Tlmpm = "tlmpm" => tlmpm::TlmpmScene,
+        /// DIQ-MPM's incompressible fluid (`mpm-diq`); see `[diq]`.
+        Diq = "diq" => diq::DiqScene,
     }
     reserved {
-        /// DIQ-MPM (not available yet).
-        Diq = "diq",
     }
 }
 
@@ -173,8 +185,8 @@ mod tests {
     #[test]
     fn solvers_own_no_common_table_and_only_keys_inside_common_tables() {
         assert!(available(SolverKind::Explicit) && available(SolverKind::Tlmpm));
-        assert!(!available(SolverKind::Diq));
-        assert_eq!(available_names(), "\"explicit\" and \"tlmpm\"");
+        assert!(available(SolverKind::Diq));
+        assert_eq!(available_names(), "\"explicit\", \"tlmpm\" and \"diq\"");
         for o in OWNED {
             for t in o.tables {
                 assert!(!COMMON_TABLES.contains(t), "{t} is a common table");

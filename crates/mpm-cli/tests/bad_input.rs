@@ -291,19 +291,19 @@ fn missing_or_unreadable_meshes() {
 }
 
 #[test]
-fn solver_diq_is_not_available_yet() {
+fn solver_diq_rejects_walls_that_are_not_free_slip() {
     let d = tmpdir("solver");
-    let t = WATER_2D.replace("dim = 2", "dim = 2\nsolver = \"diq\"");
+    let t = DIQ_2D.replace("contact = \"slip\"", "contact = \"separate\"");
     expect_bad(
         &d,
         "s.toml",
         &t,
         "check",
-        "simulation.solver",
-        Some("solver ="),
+        "boundaries[0].contact",
+        Some("contact ="),
     );
     let o = cli(&["check", &d.join("s.toml").to_string_lossy()]);
-    assert!(stderr(&o).contains("not available yet"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("free slip"), "{}", stderr(&o));
 }
 
 #[test]

@@ -173,3 +173,9 @@ fn resume_tlmpm_2d_is_bitwise() {
     // of the checkpoint: the reference positions and the G and B columns are restored.
     check_resume("tlmpm", TLMPM_SNOW_2D, 20, 40);
 }
+
+#[test]
+fn resume_diq_2d_is_bitwise() {
+    // The DIQ fluid: particles, the solved pressure and the divergence of the last step.
+    check_resume("diq", DIQ_2D, 30, 60);
+}

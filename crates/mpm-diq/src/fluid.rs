@@ -150,7 +150,7 @@ where
     Dim<D>: DimOps<D>,
 {
     /// Builds the solver. Every material must be a fluid (its density is used; the equation of
-    /// state is not, and a viscosity is rejected: this fluid is inviscid); walls and colliders
+    /// state and the viscosity are not: this fluid is incompressible and inviscid); walls and colliders
     /// must be free slip without friction (Eq. 25); every particle must lie inside the wall box.
     pub fn new(
         spec: GridSpec<D>,
@@ -176,13 +176,6 @@ where
         }
         for (i, m) in materials.iter().enumerate() {
             match m {
-                Material::Fluid(f) if f.viscosity != 0.0 => {
-                    return Err(invalid(
-                        "viscosity",
-                        f.viscosity,
-                        "the DIQ fluid is inviscid: set it to 0 or use the explicit solver",
-                    ))
-                }
                 Material::Fluid(_) => {}
                 Material::Solid(_) => {
                     return Err(SetupError::InvalidSetting {

@@ -20,6 +20,7 @@ use mpm_core::{
 };
 use std::ops::Range;
 
+pub mod diq;
 pub mod explicit;
 pub mod tlmpm;
 

@@ -28,6 +28,7 @@ use toml::Spanned;
 
 pub mod bodies;
 pub mod boundaries;
+pub mod diq;
 pub mod explicit;
 pub mod grid;
 pub mod materials;
@@ -44,6 +45,7 @@ pub use bodies::{
     BodyDef, NumberOrList, SamplingDef, SamplingKind, ShapeDef, ShapeKind, MAX_PHASES,
 };
 pub use boundaries::{BoundaryDef, BoundaryGeometry, BoundaryKind};
+pub use diq::{DiqDef, DiqScene};
 pub use explicit::ExplicitScene;
 pub use grid::{Grid, MAX_GRID_NODES};
 pub use materials::{
@@ -163,6 +165,8 @@ pub(crate) trait SolverTables: Sized {
     fn resolve(c: &mut Checker<'_>, raw: Self::Raw, common: Common<'_>) -> Self;
     /// The particle columns of the scene, given those its materials need.
     fn columns(&self, materials: Columns, bodies: &[BodyDef]) -> Columns;
+    /// Output fields only this solver computes (beyond the particle columns and `pressure`).
+    const FIELDS: &'static [&'static str] = &[];
 }
 
 /// The resolved common tables, as a solver's scene module sees them.
@@ -484,7 +488,7 @@ fn resolve(
         c,
         raw.output.as_ref(),
         &sim.duration,
-        &columns,
+        (&columns, solver.fields()),
         has_fluid,
         &stem,
     );

@@ -61,10 +61,12 @@ pub struct CheckpointDef {
     pub keep: u32,
 }
 
-/// Every snapshot field name that can exist, in file order, and when it exists.
-pub fn field_names(columns: &Columns) -> Vec<&'static str> {
+/// Every snapshot field name that can exist for particles with `columns` and a solver that
+/// computes the derived fields `solver_fields`, in file order.
+pub fn field_names(columns: &Columns, solver_fields: &[&'static str]) -> Vec<&'static str> {
     let mut names = columns.names();
     names.push("pressure");
+    names.extend_from_slice(solver_fields);
     names
 }
 
@@ -74,7 +76,7 @@ pub(super) fn resolve_output(
     c: &mut Checker<'_>,
     o: Option<&RawOutput>,
     duration: &Duration,
-    columns: &Columns,
+    (columns, solver_fields): (&Columns, &[&'static str]),
     has_fluid: bool,
     stem: &str,
 ) -> OutputDef {
@@ -99,7 +101,7 @@ pub(super) fn resolve_output(
         o.and_then(|o| o.interval_steps),
     )
     .unwrap_or(default_interval);
-    let available = field_names(columns);
+    let available = field_names(columns, solver_fields);
     let fields = match o.and_then(|o| o.fields.as_ref()) {
         None => available
             .iter()
@@ -113,6 +115,11 @@ pub(super) fn resolve_output(
                     .iter()
                     .copied()
                     .chain(["pressure"])
+                    .chain(
+                        crate::solvers::OWNED
+                            .iter()
+                            .flat_map(|o| o.fields.iter().copied()),
+                    )
                     .collect();
                 if !all.contains(&f.as_str()) {
                     c.err(

@@ -78,6 +78,50 @@ contact = "separate"
 interval_steps = 20
 "#;
 
+/// A small 2D DIQ dam break (incompressible fluid, free-slip walls), with checkpoints.
+pub const DIQ_2D: &str = r#"
+[simulation]
+dim = 2
+solver = "diq"
+steps = 60
+cfl = 0.4
+dt_max = 5e-3
+gravity = [0.0, -9.81]
+
+[grid]
+min = [0.0, 0.0]
+max = [0.5, 0.5]
+dx = 0.03125
+kernel = "linear"
+
+[[materials]]
+name = "water"
+model = "tait"
+density = 1000.0
+bulk_modulus = 2e6
+gamma = 7.0
+
+[[bodies]]
+name = "column"
+material = "water"
+shape = "box"
+min = [0.03125, 0.03125]
+max = [0.21875, 0.34375]
+
+[[boundaries]]
+type = "walls"
+contact = "slip"
+thickness = 1
+
+[output]
+interval_steps = 20
+fields = ["x", "v", "pressure", "divergence"]
+
+[checkpoint]
+interval_steps = 30
+keep = 10
+"#;
+
 /// A small 2D snow scene (F and plastic state), with checkpoints.
 pub const SNOW_2D: &str = r#"
 [simulation]

@@ -1,0 +1,75 @@
+//! The build module of `solver = "diq"`: DIQ-MPM's incompressible fluid (`mpm-diq`), with walls
+//! and colliders as free-slip boundaries, and the scene keys of its set-up errors.
+
+use super::{
+    boundaries, on_instability, setup_error, time_step_policy, unused_materials, vector, Built,
+    ErrorKeys, Start,
+};
+use crate::error::SceneError;
+use crate::scene::{DiqScene, LoadedScene, ModelDef};
+use mpm_core::{Dim, DimOps};
+use mpm_diq::{DiqFluid, DiqParams};
+
+/// The scene keys of the DIQ solver's parameter names (`SetupError::InvalidParameter`).
+const PARAMETER_KEYS: [(&str, &str); 5] = [
+    ("grid", "grid.max"),
+    ("gravity", "simulation.gravity"),
+    ("pressure.rel_tol", "diq.rel_tol"),
+    ("pressure.max_iterations", "diq.max_iterations"),
+    ("mass", "bodies"),
+];
+
+/// Builds the DIQ fluid solver from the sampled scene, with the start-up warnings (unused
+/// materials, viscosities the inviscid fluid ignores).
+pub fn build<const D: usize>(
+    scene: &LoadedScene,
+    own: &DiqScene,
+    start: Start<D>,
+) -> Result<Built<D>, SceneError>
+where
+    Dim<D>: DimOps<D>,
+{
+    let sc = &scene.scene;
+    let Start {
+        spec,
+        materials,
+        particles,
+        bodies,
+    } = start;
+    let mut warnings = unused_materials(sc, &particles, None);
+    for m in &sc.materials {
+        if let ModelDef::Tait(f) = m.model {
+            if f.viscosity != 0.0 {
+                warnings.push(format!(
+                    "material \"{}\": viscosity {} Pa·s is ignored, the DIQ fluid is inviscid",
+                    m.name, f.viscosity
+                ));
+            }
+        }
+    }
+    let s = &sc.simulation;
+    let params = DiqParams {
+        time_step: time_step_policy(s),
+        gravity: vector::<D>(&s.gravity),
+        on_instability: on_instability(s),
+        pressure: own.diq.pressure(),
+        position_correction: own.diq.position_correction,
+        gradient_quadrature: own.diq.gradient_quadrature,
+    };
+    let keys = ErrorKeys {
+        parameters: &PARAMETER_KEYS,
+        settings: vec![
+            ("walls".to_string(), "boundaries".to_string()),
+            ("colliders".to_string(), "boundaries".to_string()),
+        ],
+    };
+    let fail = |e| setup_error(scene, &bodies, e, &keys);
+    let solver =
+        DiqFluid::new(spec, params, materials, boundaries::<D>(scene), particles).map_err(fail)?;
+    Ok(Built {
+        solver: Box::new(solver),
+        bodies,
+        warnings,
+        notes: Vec::new(),
+    })
+}
