@@ -5,7 +5,9 @@
 //! Cases (module [`cases`]): the axis-aligned manufactured solution in 2D and 3D
 //! ([`cases::mms`]), a vibrating fixed-free bar ([`cases::bar`]), a free spinning disk
 //! ([`cases::disk`]), a weakly compressible water column at rest
-//! ([`cases::hydrostatic`]) and six multi-grid cases ([`cases::multigrid`]: maximal drag against
+//! ([`cases::hydrostatic`]), the DIQ-MPM incompressible fluid ([`cases::diq`]: a column at
+//! rest, divergence, Taylor–Green, volume conservation, a side-by-side with the weakly
+//! compressible solver, and its stability sweeps) and six multi-grid cases ([`cases::multigrid`]: maximal drag against
 //! the single grid, momentum conservation of the couplings, frictionless sliding along a wall,
 //! immiscible separation, concentration diffusion, a floating block). Stability sweeps over
 //! stiffness and CFL factor live in [`stability`]. Units are SI throughout.
@@ -119,6 +121,11 @@ fn error_label(case: &str) -> &'static str {
         cases::tlmpm::cantilever_tip_load::NAME => {
             "|static deflection / Euler-Bernoulli - 1|; period error"
         }
+        cases::diq::hydrostatic_incompressible::NAME => "max |p - rho g (H - y)| / (rho g H)",
+        cases::diq::divergence_free::NAME => "max |div v| dx / U",
+        cases::diq::taylor_green::NAME => "relative L2 velocity error",
+        cases::diq::volume_conservation::NAME => "max |V(t)/V(0) - 1|",
+        cases::diq::incompressible_vs_wc::NAME => "DIQ bottom pressure error / (rho g H)",
         _ => "error",
     }
 }
@@ -225,6 +232,9 @@ pub fn run_validation(opts: &Options) -> Report {
     }
     if names.contains(&cases::disk::NAME) {
         stability.extend(stability::disk_sweep(opts.mode));
+    }
+    if names.contains(&cases::diq::hydrostatic_incompressible::NAME) {
+        stability.extend(cases::diq::stability::sweep(opts.mode));
     }
     Report {
         machine: Machine::current(),

@@ -1,6 +1,7 @@
 //! Validation cases with known answers, one module each, and the helpers they share.
 
 pub mod bar;
+pub mod diq;
 pub mod disk;
 pub mod hydrostatic;
 pub mod mms;
@@ -107,6 +108,26 @@ pub static REGISTRY: &[&dyn Case] = &[
     &FnCase {
         name: tlmpm::cantilever_tip_load::NAME,
         run: tlmpm::cantilever_tip_load::case,
+    },
+    &FnCase {
+        name: diq::hydrostatic_incompressible::NAME,
+        run: diq::hydrostatic_incompressible::case,
+    },
+    &FnCase {
+        name: diq::divergence_free::NAME,
+        run: diq::divergence_free::case,
+    },
+    &FnCase {
+        name: diq::taylor_green::NAME,
+        run: diq::taylor_green::case,
+    },
+    &FnCase {
+        name: diq::volume_conservation::NAME,
+        run: diq::volume_conservation::case,
+    },
+    &FnCase {
+        name: diq::incompressible_vs_wc::NAME,
+        run: diq::incompressible_vs_wc::case,
     },
 ];
 
