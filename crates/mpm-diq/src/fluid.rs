@@ -347,6 +347,26 @@ where
         &self.divergence
     }
 
+    /// The pressure system a step of `dt` (s) would solve from the current state, for
+    /// benchmarks: the rows of `J`, the inverse lumped node masses (1/kg, 0 without mass) and
+    /// the right-hand side `J v* − b` (m³/s in 3D). Assemble it with
+    /// [`PressureSystem::assemble`] (scale `dt`) and [`Self::solid_cells`].
+    pub fn projection_problem(&self, dt: Real) -> (Constraints<D>, Vec<Real>, Vec<Real>) {
+        let ps = &self.particles;
+        let bins = self.bin(&ps.x);
+        let mut nodes = self.transfer(&ps.x, &ps.v, &ps.affine, &bins, true);
+        // A non-finite state would have failed the last step's guards.
+        let _ = self.predict(&mut nodes, dt);
+        let (rows, _) = self.constraints(&ps.x, &bins, &nodes.mass, self.time);
+        let rhs = rows.residual(&nodes.velocity);
+        (rows, nodes.inv_mass, rhs)
+    }
+
+    /// Which cells are walls, for the multigrid preconditioner of [`PressureSystem::assemble`].
+    pub fn solid_cells(&self) -> impl Fn(usize) -> bool + '_ {
+        self.solid_cell()
+    }
+
     /// Velocities, for tests and set-ups (m/s).
     pub fn velocities_mut(&mut self) -> &mut [Vector<D>] {
         &mut self.particles.v
