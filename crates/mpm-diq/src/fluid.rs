@@ -229,6 +229,20 @@ where
                     position: format!("{:?}", particles.x[i].as_slice()),
                 });
             }
+            if let Some(k) = domain
+                .colliders
+                .iter()
+                .position(|c| c.shape.signed_distance(&particles.x[i]).0 < 0.0)
+            {
+                return Err(SetupError::InvalidSetting {
+                    setting: "colliders".into(),
+                    reason: format!(
+                        "particle {i} at {:?} starts inside collider {k}: fluid cannot overlap a \
+                         collider; move the body or the collider",
+                        particles.x[i].as_slice()
+                    ),
+                });
+            }
             let m = particles.material[i] as usize;
             if m >= materials.len() {
                 return Err(SetupError::UnknownMaterial {
@@ -669,7 +683,7 @@ where
         let (pressure_of_cell, divergence_of_cell, info) = times.time(Stage::Solve, || {
             self.project(&mut nodes, &bins, dt, projection)
         })?;
-        let (mut x, v, affine) = times.time(Stage::G2P, || self.g2p(&nodes, &bins, dt))?;
+        let (mut x, v, affine) = times.time(Stage::G2P, || self.g2p(&nodes, dt))?;
         let mut solves = vec![SolveInfo {
             name: "pressure",
             iterations: info.iterations,
@@ -768,10 +782,8 @@ where
     fn g2p(
         &self,
         nodes: &NodeFields<D>,
-        bins: &Bins,
         dt: Real,
     ) -> Result<(Vec<Vector<D>>, Vec<Vector<D>>, Vec<Matrix<D>>), Failure<PressureError>> {
-        let _ = bins;
         let dx = self.domain.spec.dx;
         let t_end = self.time + dt;
         let out: Vec<(Vector<D>, Vector<D>, Matrix<D>)> = self

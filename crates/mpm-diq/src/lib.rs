@@ -36,6 +36,9 @@
 //!   `thickness` of each face, with two Gauss–Legendre points per cell edge per tangential axis;
 //!   collider surfaces are sampled per fluid cell (see [`domain::Domain::collider_points`]). The
 //!   constraint is bilateral, as in the paper.
+//! - **`G^f` quadrature.** See [`fluid::GradientQuadrature`]: the default integrates each cell's
+//!   fluid volume at the cell centre, because the paper's particle quadrature makes a fluid at
+//!   rest unstable (measured there).
 //! - **Where `y` lives.** The boundary pressure is constant on the piece of boundary around
 //!   each node (the node-centred B0 box, one `y` per wall node with mass and per wall face or
 //!   collider), not per cell. With one `y` per *cell* face, `B` has one row fewer than the
@@ -56,8 +59,10 @@
 //! IQ-MPM) uses the pair because it gives the sparsest system (each pressure couples only with
 //! the `3^D` cells sharing a node) and because the velocity projection, which is what moves the
 //! fluid, does not depend on `β`: the divergence constraint is met to the solver tolerance in
-//! any case (tested). What `β` controls is pressure noise; `tests` measure the discrete inf-sup
-//! constant on refined grids and the hydrostatic pressure error.
+//! any case (tested). What `β` controls is pressure noise. The tests check that the assembled
+//! system with a free surface is definite (its smallest eigenvalue is positive, so `J` has full
+//! row rank) and measure the hydrostatic pressure error; the discrete inf-sup constant itself is
+//! not measured.
 //!
 //! # Misprints in the paper, and the choices made
 //!

@@ -57,8 +57,8 @@ pub enum UnknownKind {
 pub enum PressureMethod {
     /// CG with Jacobi (diagonal) preconditioning.
     Jacobi,
-    /// CG preconditioned by IC(0) of the assembled matrix (serial triangular solves). The
-    /// default: on the fluid systems it needs the fewest iterations (a 2D column of 32² cells:
+    /// CG preconditioned by IC(0) of the assembled matrix (serial triangular solves; Jacobi
+    /// for a step whose IC(0) factorisation breaks down). The default: on the fluid systems it needs the fewest iterations (a 2D column of 32² cells:
     /// 34 against 78 for Jacobi and 135 for multigrid) and the least time (see
     /// `benches/README.md`).
     #[default]
@@ -462,9 +462,17 @@ impl<const D: usize> PressureSystem<D> {
                     .map_err(PressureError::Preconditioner)?;
                 Precond::Jacobi(j)
             }
-            PressureMethod::IncompleteCholesky => {
-                Precond::Ic(IncompleteCholesky::new(matrix).map_err(PressureError::Preconditioner)?)
-            }
+            PressureMethod::IncompleteCholesky => match IncompleteCholesky::new(matrix) {
+                Ok(ic) => Precond::Ic(ic),
+                // IC(0) can break down on an SPD matrix that is not an M-matrix (a pivot
+                // vanishes to round-off); Jacobi always exists for a positive diagonal.
+                Err(_) => {
+                    let mut j = Jacobi::new();
+                    j.set_from_matrix(matrix)
+                        .map_err(PressureError::Preconditioner)?;
+                    Precond::Jacobi(j)
+                }
+            },
             PressureMethod::Multigrid => {
                 let fluid = rows.num_fluid();
                 let mut all = Jacobi::new();

@@ -402,3 +402,51 @@ fn three_dimensional_column_is_hydrostatic() {
     let exact = RHO * 9.81 * (h - 0.5 * dx);
     assert!((bottom - exact).abs() < 0.02 * exact, "{bottom} vs {exact}");
 }
+
+#[test]
+fn pattern_is_reused_while_the_fluid_cells_do_not_change() {
+    // A column at rest keeps its cells: every step after the first reuses the pattern.
+    let mut fluid = column(16, 0.5, PressureMethod::IncompleteCholesky);
+    let first = fluid.advance().unwrap();
+    assert!(!first.events.contains(&("pressure_pattern_reused", 1)));
+    for _ in 0..3 {
+        let info = fluid.advance().unwrap();
+        assert!(info.events.contains(&("pressure_pattern_reused", 1)));
+    }
+}
+
+#[test]
+fn fixed_dt_above_the_bound_stops_or_is_retried_at_half_steps() {
+    let dx = 1.0 / 16.0;
+    let make = |policy| {
+        let mut p = params::<2>(1e-2, false);
+        p.time_step = TimeStepPolicy::Fixed { dt: 0.15 };
+        p.on_instability = policy;
+        DiqFluid::new(
+            grid([16, 16], dx),
+            p,
+            vec![water()],
+            walls(),
+            block([0.0, 0.0], [0.4, 0.6], dx, 2, |_| Vector::<2>::zeros()),
+        )
+        .unwrap()
+    };
+    // g dt² = 0.22 m > Δx: the first step moves particles more than a cell.
+    match make(mpm_core::OnInstability::Abort).advance() {
+        Err(StepError::Instability(i)) => {
+            assert_eq!(i.violation, mpm_core::Violation::CflExceeded);
+            assert_eq!(i.stage, mpm_core::Stage::G2P);
+        }
+        other => panic!("expected a CFL instability, got {other:?}"),
+    }
+    let mut retry = make(mpm_core::OnInstability::Retry { max_retries: 4 });
+    let info = retry.advance().unwrap();
+    assert!(info.retries >= 1 && info.dt < 0.15, "{info:?}");
+    let moved = retry
+        .particles()
+        .v
+        .iter()
+        .map(|v| v.norm() * info.dt)
+        .fold(0.0, Real::max);
+    assert!(moved <= dx, "moved {moved} m in one accepted step");
+}
