@@ -750,22 +750,14 @@ where
         system: &mut PressureSystem<D>,
     ) -> Result<(Vec<Real>, Vec<Real>, PressureInfo), Failure<PressureError>> {
         let (rows, volumes) = self.constraints(&self.particles.x, bins, &nodes.mass, self.time);
-        let fail = |e| Failure::Solve(Stage::Solve, e);
-        system
-            .assemble(
-                &rows,
-                &nodes.inv_mass,
-                dt,
-                &self.params.pressure,
-                &self.solid_cell(),
-            )
-            .map_err(fail)?;
-        let rhs = rows.residual(&nodes.velocity);
-        let mut lambda = Vec::new();
-        let info = system
-            .solve(&rhs, &mut lambda, &self.params.pressure)
-            .map_err(fail)?;
-        rows.apply_transpose(&lambda, &nodes.inv_mass, dt, &mut nodes.velocity);
+        let (lambda, info) = self.solve_onto(
+            &rows,
+            &nodes.inv_mass,
+            dt,
+            &mut nodes.velocity,
+            system,
+            Stage::Solve,
+        )?;
         let nf = rows.num_fluid();
         let after = rows.residual(&nodes.velocity);
         let mut pressure = vec![0.0; self.domain.num_cells()];
@@ -775,6 +767,32 @@ where
             divergence[rows.anchors[k]] = -after[k] / volumes[k];
         }
         Ok((pressure, divergence, info))
+    }
+
+    /// Moves the node field `v` (velocities in m/s; for the position correction, displacements
+    /// over dt) onto the constraints `J v = b` of `rows`: assembles `A = dt J M⁻¹ Jᵀ`, solves
+    /// `A λ = J v − b` and sets `v ← v − dt M⁻¹ Jᵀ λ`. Returns λ (Pa) and the solve's summary;
+    /// a failure is reported in `stage`.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_onto(
+        &self,
+        rows: &Constraints<D>,
+        inv_mass: &[Real],
+        dt: Real,
+        v: &mut [Vector<D>],
+        system: &mut PressureSystem<D>,
+        stage: Stage,
+    ) -> Result<(Vec<Real>, PressureInfo), Failure<PressureError>> {
+        let fail = |e| Failure::Solve(stage, e);
+        let params = &self.params.pressure;
+        system
+            .assemble(rows, inv_mass, dt, params, &self.solid_cell())
+            .map_err(fail)?;
+        let rhs = rows.residual(v);
+        let mut lambda = Vec::new();
+        let info = system.solve(&rhs, &mut lambda, params).map_err(fail)?;
+        rows.apply_transpose(&lambda, inv_mass, dt, v);
+        Ok((lambda, info))
     }
 
     /// APIC G2P, advection and clamping. Guards non-finite values and a displacement above Δx.
@@ -875,24 +893,15 @@ where
         if !any {
             return Ok(None);
         }
-        let fail = |e| Failure::Solve(Stage::PositionCorrection, e);
-        system
-            .assemble(
-                &rows,
-                &nodes.inv_mass,
-                dt,
-                &self.params.pressure,
-                &self.solid_cell(),
-            )
-            .map_err(fail)?;
-        let zero_nodes = vec![Vector::<D>::zeros(); nodes.mass.len()];
-        let rhs = rows.residual(&zero_nodes);
-        let mut lambda = Vec::new();
-        let info = system
-            .solve(&rhs, &mut lambda, &self.params.pressure)
-            .map_err(fail)?;
-        let mut d = zero_nodes;
-        rows.apply_transpose(&lambda, &nodes.inv_mass, dt, &mut d);
+        let mut d = vec![Vector::<D>::zeros(); nodes.mass.len()];
+        let (_, info) = self.solve_onto(
+            &rows,
+            &nodes.inv_mass,
+            dt,
+            &mut d,
+            system,
+            Stage::PositionCorrection,
+        )?;
         let dx = self.domain.spec.dx;
         x.par_iter_mut().for_each(|xp| {
             let (m, f) = self.domain.locate(xp).expect("inside");

@@ -80,17 +80,22 @@ impl Setup {
             position_correction: self.correction,
             ..DiqParams::default()
         };
-        let walls = Boundaries {
-            walls: Some(DomainWalls {
-                contact: Contact {
-                    kind: ContactKind::Slip,
-                    friction: 0.0,
-                },
-                thickness: 1,
-            }),
-            colliders: Vec::new(),
-        };
+        let walls = slip_walls(1);
         DiqFluid::new(spec, params, vec![water()], walls, ps).map_err(|e| e.to_string())
+    }
+}
+
+/// Free-slip walls `thickness` node layers in from the grid's faces.
+fn slip_walls<const D: usize>(thickness: usize) -> Boundaries<D> {
+    Boundaries {
+        walls: Some(DomainWalls {
+            contact: Contact {
+                kind: ContactKind::Slip,
+                friction: 0.0,
+            },
+            thickness,
+        }),
+        colliders: Vec::new(),
     }
 }
 
@@ -495,16 +500,7 @@ pub mod incompressible_vs_wc {
                 affine: Matrix::<2>::zeros(),
             });
         }
-        let walls = Boundaries {
-            walls: Some(DomainWalls {
-                contact: Contact {
-                    kind: ContactKind::Slip,
-                    friction: 0.0,
-                },
-                thickness: 3,
-            }),
-            colliders: Vec::new(),
-        };
+        let walls = slip_walls(3);
         let params = mpm_explicit::ExplicitParams {
             gravity: Vector::<2>::new(0.0, -G),
             time_step: TimeStepPolicy::Adaptive {
@@ -767,16 +763,7 @@ pub mod stability {
                 affine: Matrix::<3>::zeros(),
             });
         }
-        let walls = Boundaries {
-            walls: Some(DomainWalls {
-                contact: Contact {
-                    kind: ContactKind::Slip,
-                    friction: 0.0,
-                },
-                thickness: 1,
-            }),
-            colliders: Vec::new(),
-        };
+        let walls = slip_walls(1);
         let params = DiqParams {
             time_step: adaptive(1e-2),
             ..DiqParams::default()
