@@ -70,7 +70,8 @@ impl<const D: usize> Default for DiqParams<D> {
     }
 }
 
-/// Particles closer than this fraction of Δx to a wall or collider surface are moved to it.
+/// Particles closer than this fraction of Δx to a wall or collider surface are moved out to that
+/// distance.
 const CLAMP_MARGIN: Real = 1e-3;
 
 /// Particles binned by cell: `order[start[c]..start[c+1]]` are the particles of cell `c`, in
@@ -117,7 +118,7 @@ struct Attempt<const D: usize> {
 #[derive(Debug)]
 pub struct DiqFluid<const D: usize> {
     domain: Domain<D>,
-    pub(crate) params: DiqParams<D>,
+    params: DiqParams<D>,
     materials: Vec<Material>,
     boundaries: Boundaries<D>,
     particles: Particles<D>,

@@ -450,3 +450,60 @@ fn fixed_dt_above_the_bound_stops_or_is_retried_at_half_steps() {
         .fold(0.0, Real::max);
     assert!(moved <= dx, "moved {moved} m in one accepted step");
 }
+
+#[test]
+fn particle_quadrature_of_the_gradient_destabilises_a_column_at_rest() {
+    // The reason for the cell-centre default: with G^f by particle quadrature, round-off in a
+    // column at rest grows exponentially (about 57 s⁻¹ at Δx = 1/32 m), while the cell-centre
+    // rule keeps it at rest (see `hydrostatic_column_stays_at_rest_with_linear_pressure`).
+    let n = 32;
+    let dx = 1.0 / n as Real;
+    let mut p = params::<2>(1e-2, false);
+    p.gradient_quadrature = crate::GradientQuadrature::Particles;
+    let mut fluid = DiqFluid::new(
+        grid([n, n], dx),
+        p,
+        vec![water()],
+        walls(),
+        block([0.0, 0.0], [1.0, 0.5], dx, 2, |_| Vector::<2>::zeros()),
+    )
+    .unwrap();
+    while fluid.time() < 0.6 {
+        fluid.advance().unwrap();
+    }
+    let vmax = fluid
+        .particles()
+        .v
+        .iter()
+        .map(|v| v.norm())
+        .fold(0.0, Real::max);
+    assert!(vmax > 1e-3, "max speed {vmax:e} m/s after 0.6 s");
+}
+
+#[test]
+fn cg_keeps_a_decreasing_residual_history_when_asked() {
+    let mut fluid = column(16, 0.5, PressureMethod::Jacobi);
+    let (rows, inv_mass, rhs) = fluid.projection_problem(1e-3);
+    let params = PressureParams {
+        method: PressureMethod::Jacobi,
+        keep_history: true,
+        ..PressureParams::default()
+    };
+    let mut system = PressureSystem::<2>::new();
+    system
+        .assemble(&rows, &inv_mass, 1e-3, &params, &fluid.solid_cells())
+        .unwrap();
+    let mut lambda = Vec::new();
+    let info = system.solve(&rhs, &mut lambda, &params).unwrap();
+    assert_eq!(info.history.len(), info.iterations as usize + 1);
+    let first = info.history[0];
+    let last = *info.history.last().unwrap();
+    assert!(last <= 1e-8 * first && (last / first - info.relative_residual).abs() < 1e-12);
+    // The same system again: the pattern is reused.
+    system
+        .assemble(&rows, &inv_mass, 1e-3, &params, &fluid.solid_cells())
+        .unwrap();
+    let again = system.solve(&rhs, &mut lambda, &params).unwrap();
+    assert!(again.pattern_reused && !info.pattern_reused);
+    fluid.advance().unwrap();
+}
