@@ -148,6 +148,24 @@ impl Schedule {
     }
 }
 
+/// Removes the temporary files a killed run leaves in `dir` (`.snap_000042.h5.tmp-PID`, and the
+/// same for checkpoints and `run.xmf`); returns how many.
+fn remove_temporary_files(dir: &Path) -> usize {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    rd.filter_map(Result::ok)
+        .filter(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            [".snap_", ".ckpt_", ".run.xmf"]
+                .iter()
+                .any(|p| name.starts_with(p))
+                && name.contains(".tmp-")
+        })
+        .filter(|e| std::fs::remove_file(e.path()).is_ok())
+        .count()
+}
+
 /// Everything of a run that is not the solver.
 struct Runner<'a, const D: usize> {
     solver: Box<dyn Solver<D>>,
@@ -307,7 +325,14 @@ where
 
     /// Removes snapshots and checkpoints of an earlier run in the output directory.
     fn clean_stale_outputs(&mut self) {
+        // The series file and the summary first: if the run dies before it writes its own,
+        // nothing points at deleted snapshots or reports the old run as this one.
         let mut removed = 0;
+        for name in ["run.xmf", "summary.json"] {
+            if std::fs::remove_file(self.out.join(name)).is_ok() {
+                removed += 1;
+            }
+        }
         for prefix in ["snap_", "ckpt_"] {
             for (_, p) in numbered_files(&self.out, prefix) {
                 if std::fs::remove_file(&p).is_ok() {
@@ -315,21 +340,11 @@ where
                 }
             }
         }
-        // Temporary files left by a killed run (`.snap_000042.h5.tmp-PID`).
-        if let Ok(rd) = std::fs::read_dir(&self.out) {
-            for e in rd.filter_map(Result::ok) {
-                let name = e.file_name().to_string_lossy().into_owned();
-                let ours = [".snap_", ".ckpt_", ".run.xmf"]
-                    .iter()
-                    .any(|p| name.starts_with(p));
-                if ours && name.contains(".tmp-") && std::fs::remove_file(e.path()).is_ok() {
-                    removed += 1;
-                }
-            }
-        }
+        removed += remove_temporary_files(&self.out);
         if removed > 0 && !self.quiet {
             eprintln!(
-                "note: removed {removed} snapshot, checkpoint or temporary files of an earlier run in {}",
+                "note: removed {removed} snapshot, checkpoint, series, summary or temporary files \
+                 of an earlier run in {}",
                 self.out.display()
             );
         }
@@ -405,19 +420,26 @@ where
             }
             (m.min, m.max) = (m.initial.min(now), m.initial.max(now));
         }
-        // Keep the snapshots written before the checkpoint; later ones are rewritten.
+        // Keep the snapshots written before the checkpoint; later ones are rewritten. A kept
+        // snapshot of the checkpoint's own step (a run that ended there) is not written again.
+        remove_temporary_files(&self.out);
         for (n, p) in numbered_files(&self.out, "snap_") {
             if n >= self.frame {
                 let _ = std::fs::remove_file(&p);
                 continue;
             }
             match read_file(&p) {
-                Ok(s) => self.series.push(SeriesEntry {
-                    time: s.header.time,
-                    file: snapshot_name(n),
-                    dim: D as u32,
-                    fields: s.fields.iter().map(|f| f.spec()).collect(),
-                }),
+                Ok(s) => {
+                    if s.header.step == ck.header.step {
+                        self.last_snapshot_step = Some(s.header.step);
+                    }
+                    self.series.push(SeriesEntry {
+                        time: s.header.time,
+                        file: snapshot_name(n),
+                        dim: D as u32,
+                        fields: s.fields.iter().map(|f| f.spec()).collect(),
+                    })
+                }
                 Err(e) => self.warn(format!("earlier snapshot not kept in run.xmf: {e}")),
             }
         }
@@ -578,13 +600,13 @@ where
                 self.out.display()
             );
         }
+        let mut failure: Option<CliError> = None;
         if self.series.is_empty() && self.frame == 0 {
-            self.write_snapshot()?;
+            failure = self.write_snapshot().err();
         }
         let tty = std::io::stderr().is_terminal();
         let mut progress = Progress::new(self.quiet, tty);
-        let mut failure: Option<CliError> = None;
-        while !self.finished() {
+        while failure.is_none() && !self.finished() {
             match self.solver.step() {
                 Ok(info) => self.record(&info),
                 Err(e) => {

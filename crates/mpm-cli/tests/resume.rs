@@ -179,3 +179,57 @@ fn resume_diq_2d_is_bitwise() {
     // The DIQ fluid: particles, the solved pressure and the divergence of the last step.
     check_resume("diq", DIQ_2D, 30, 60);
 }
+
+#[test]
+fn resuming_from_the_final_checkpoint_writes_nothing_twice() {
+    let d = tmpdir("resume-final");
+    let scene = write(&d, "s.toml", SNOW_2D);
+    let out = d.join("out");
+    run(&scene, &out, &[]);
+    let snaps = numbered_files(&out, "snap_");
+    let xmf = std::fs::read_to_string(out.join("run.xmf")).unwrap();
+    let last = numbered_files(&out, "ckpt_").last().unwrap().1.clone();
+    run(&scene, &out, &["--resume", &last.to_string_lossy()]);
+    assert_eq!(
+        numbered_files(&out, "snap_"),
+        snaps,
+        "snapshots after the resume"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("run.xmf")).unwrap(),
+        xmf,
+        "run.xmf after the resume"
+    );
+}
+
+#[test]
+fn a_fresh_run_removes_the_old_series_and_summary_first_and_resume_removes_temporaries() {
+    let d = tmpdir("stale");
+    let scene = write(&d, "s.toml", SNOW_2D);
+    let out = d.join("out");
+    run(&scene, &out, &[]);
+    // A fresh run that cannot write its first snapshot (a directory sits at its name) must not
+    // leave the old run.xmf pointing at deleted snapshots, nor the old "ok" summary.
+    let ck = numbered_files(&out, "ckpt_").first().unwrap().1.clone();
+    let kept = d.join("ckpt.h5");
+    std::fs::copy(&ck, &kept).unwrap();
+    std::fs::remove_file(out.join("snap_000000.h5")).unwrap();
+    std::fs::create_dir(out.join("snap_000000.h5")).unwrap();
+    let o = cli(&[
+        "run",
+        &scene.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+        "--quiet",
+    ]);
+    assert_ne!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!out.join("run.xmf").exists(), "stale run.xmf left");
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(summary.contains("\"status\": \"error\""), "{summary}");
+    // A resume removes the temporary files of a killed run.
+    std::fs::remove_dir(out.join("snap_000000.h5")).unwrap();
+    let tmp = out.join(".snap_000003.h5.tmp-12345");
+    std::fs::write(&tmp, b"partial").unwrap();
+    run(&scene, &out, &["--resume", &kept.to_string_lossy()]);
+    assert!(!tmp.exists(), "temporary file left after --resume");
+}
