@@ -352,5 +352,5 @@ fn example_scenes_check_and_start() {
         let out = run_scene(&d, &name, &short.join("\n"));
         assert_eq!(numbered_files(&out, "snap_").len(), 4, "{name}");
     }
-    assert_eq!(count, 18, "the eighteen example scenes");
+    assert_eq!(count, 21, "the twenty-one example scenes");
 }
