@@ -28,7 +28,7 @@ mod xdmf;
 pub use error::IoError;
 pub use snapshot::{
     list_files, read_file, read_header, read_layout, write_file, Data, Field, FieldSpec, FileKind,
-    Header, Snapshot, EXTRA_ATTRS_ATTR, FIELD_ORDER_ATTR, PARTICLES_GROUP, RESERVED_ROOT_ATTRS,
-    UNIT_ATTR,
+    Header, Snapshot, CONNECTIVITY_DATASET, EXTRA_ATTRS_ATTR, FIELD_ORDER_ATTR, MESH_GROUP,
+    PARTICLES_GROUP, RESERVED_ROOT_ATTRS, UNIT_ATTR,
 };
 pub use xdmf::{write_xdmf, SeriesEntry};

@@ -117,6 +117,12 @@ impl Snapshot {
 /// Name of the group holding the particle datasets.
 pub const PARTICLES_GROUP: &str = "particles";
 
+/// Group of a snapshot holding its Polyvertex topology for XDMF readers.
+pub const MESH_GROUP: &str = "mesh";
+
+/// The dataset of a snapshot's Polyvertex topology: the particle indices `0..N` (u32).
+pub const CONNECTIVITY_DATASET: &str = "/mesh/connectivity";
+
 /// Attribute of `/particles`: the dataset names in the order they were written (1-D array of
 /// variable-length UTF-8 strings). [`read_file`] returns the fields in this order.
 pub const FIELD_ORDER_ATTR: &str = "field_order";
@@ -421,10 +427,35 @@ fn write_hdf5(tmp: &Path, path: &Path, header: &Header, fields: &[Field]) -> Res
             };
             write_str_attr(&ds, UNIT_ATTR, &f.unit).map_err(err(&format!("{what} unit")))?;
         }
+        if header.kind == FileKind::Snapshot {
+            write_connectivity(&file, fields).map_err(err(CONNECTIVITY_DATASET))?;
+        }
         // Every handle into the file (group, datasets, attributes) is dropped here, so the
         // close below really releases the file.
     }
     file.close().map_err(err("(closing) the file"))
+}
+
+/// A snapshot's `/mesh/connectivity`: `0, 1, …, N−1` (u32), N the rows of `x`, for XDMF
+/// readers that need an explicit Polyvertex topology (meshio). Nothing when there is no `x`.
+fn write_connectivity(file: &hdf5::File, fields: &[Field]) -> hdf5::Result<()> {
+    let Some(n) = fields
+        .iter()
+        .find(|f| f.name == "x")
+        .and_then(|f| f.data.shape().first().copied())
+    else {
+        return Ok(());
+    };
+    let ids: Vec<u32> = (0..n as u32).collect();
+    let group = file
+        .create_group_builder()
+        .with_gcpl(|p| p.obj_track_times(false))
+        .create(MESH_GROUP)?;
+    group
+        .new_dataset::<u32>()
+        .shape([n])
+        .create("connectivity")?
+        .write_raw(&ids)
 }
 
 fn write_scalar_attr<T: hdf5::H5Type>(

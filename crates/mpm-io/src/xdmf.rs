@@ -3,7 +3,7 @@
 //! other field, all referencing the HDF5 datasets.
 
 use crate::atomic::replace_atomically;
-use crate::{Field, FieldSpec, Header, IoError};
+use crate::{Field, FieldSpec, Header, IoError, CONNECTIVITY_DATASET};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -36,23 +36,21 @@ impl SeriesEntry {
 /// Writes the XDMF file for `entries` to `path` atomically.
 ///
 /// Layout (XDMF 3): a `Temporal` collection holding, per entry and in the given order, a
-/// `Uniform` grid with its `Time`, a `Polyvertex` topology of N elements, an `XY` (2D) or
-/// `XYZ` (3D) geometry read from `<file>:/particles/x` (which must be an `f64` field shaped
-/// `[N, dim]`), and one node-centred attribute per other field, read from
-/// `<file>:/particles/<name>`:
+/// `Uniform` grid with its `Time`, a `Polyvertex` topology of N elements read from
+/// `<file>:/mesh/connectivity` (the indices 0..N, which snapshots carry for readers that need
+/// an explicit topology, such as meshio), an `XY` (2D) or `XYZ` (3D) geometry read from
+/// `<file>:/particles/x` (which must be an `f64` field shaped `[N, dim]`), and one node-centred
+/// attribute per other field, read from `<file>:/particles/<name>` with the dataset's own
+/// `Dimensions`:
 /// - `[N]`, `[N, 1]` → `Scalar`; `[N, 2]`, `[N, 3]` → `Vector`;
-/// - `[N, 3, 3]` → `Tensor` (9 components, `Dimensions="N 3 3"`);
-/// - `[N, 2, 2]` (2D tensors) and any other shape → `Matrix` flattened to
-///   `Dimensions="N M"`, M the product of the trailing dimensions (4 for a 2D tensor,
-///   row-major xx, xy, yx, yy). The HDF5 dataset keeps its shape `[N, 2, 2]`; the readers
-///   read it as N×M contiguous values. Checked with ParaView 5.11: the legacy "XDMF Reader"
-///   reads `Matrix` with `N 2 2` as 2 components (wrong) but `N 4` as 4 (right), and the
-///   XDMF 3 readers read both as 4.
+/// - `[N, 3, 3]` → `Tensor`;
+/// - `[N, 2, 2]` (2D tensors, row-major xx, xy, yx, yy) and any other shape → `Matrix`.
 ///
-/// Note on ParaView readers (5.11): the legacy "XDMF Reader" turns the connectivity-less
-/// `Polyvertex` into N vertex cells (the "Points" representation shows the particles, 2D
-/// vectors are padded to 3 components); the "Xdmf3 Reader" variants load the points and
-/// arrays but no cells, so use the "Point Gaussian" representation with them.
+/// Checked in the test suite with VTK 9.7's `vtkXdmfReader` (the reader behind ParaView's
+/// "XDMF Reader") and meshio 5's `TimeSeriesReader`: every field comes back with N tuples of
+/// the right number of components (a 2D tensor as 4 components; declaring it `N 4` instead of
+/// `N 2 2`, as this writer did before, made VTK read one tuple of 4N components). ParaView
+/// shows the particles with the "Points" or "Point Gaussian" representation.
 ///
 /// `f64` data is `Float`/8 bytes, `u32` data `UInt`/4 bytes. Names are XML-escaped.
 /// The file is written to a temporary name in the same directory and renamed into place.
@@ -78,15 +76,6 @@ fn attribute_type(shape: &[usize]) -> &'static str {
         [_, 2] | [_, 3] => "Vector",
         [_, 3, 3] => "Tensor",
         _ => "Matrix",
-    }
-}
-
-/// The `Dimensions` of the `DataItem` for a field of `shape` used as `attribute_type`:
-/// the dataset's shape, except that a `Matrix` is flattened to `N M`.
-fn dimensions(shape: &[usize], attribute_type: &str) -> String {
-    match (attribute_type, shape) {
-        ("Matrix", [n, rest @ ..]) => format!("{n} {}", rest.iter().product::<usize>()),
-        _ => join_dims(shape),
     }
 }
 
@@ -155,7 +144,9 @@ fn render_entry(out: &mut String, e: &SeriesEntry) -> Result<(), String> {
     let _ = writeln!(
         out,
         "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{n}\" \
-         NodesPerElement=\"1\"/>"
+         NodesPerElement=\"1\">\n          <DataItem Dimensions=\"{n}\" NumberType=\"UInt\" \
+         Precision=\"4\" Format=\"HDF\">{file}:{CONNECTIVITY_DATASET}</DataItem>\n        \
+         </Topology>"
     );
     let _ = writeln!(out, "        <Geometry GeometryType=\"{geometry}\">");
     data_item(out, &file, x, &join_dims(&x.shape), "          ");
@@ -173,7 +164,7 @@ fn render_entry(out: &mut String, e: &SeriesEntry) -> Result<(), String> {
             "        <Attribute Name=\"{}\" AttributeType=\"{kind}\" Center=\"Node\">",
             escape(&f.name),
         );
-        data_item(out, &file, f, &dimensions(&f.shape, kind), "          ");
+        data_item(out, &file, f, &join_dims(&f.shape), "          ");
         out.push_str("        </Attribute>\n");
     }
     out.push_str("      </Grid>\n");

@@ -87,6 +87,16 @@ fn check(path: &Path, entries: &[SeriesEntry]) -> usize {
         assert_eq!(topo.attribute("TopologyType"), Some("Polyvertex"));
         assert_eq!(topo.attribute("NumberOfElements"), Some(&*n.to_string()));
         assert_eq!(topo.attribute("NodesPerElement"), Some("1"));
+        assert_eq!(
+            data_item(topo),
+            (
+                n.to_string(),
+                "UInt".into(),
+                "4".into(),
+                "HDF".into(),
+                format!("{}:/mesh/connectivity", e.file)
+            )
+        );
         let geom = child(*g, "Geometry");
         let want_geom = if e.dim == 2 { "XY" } else { "XYZ" };
         assert_eq!(geom.attribute("GeometryType"), Some(want_geom));
@@ -125,7 +135,7 @@ fn check(path: &Path, entries: &[SeriesEntry]) -> usize {
                 [n] => ("Scalar", format!("{n}")),
                 [n, k] if *k == d => ("Vector", format!("{n} {k}")),
                 [n, 3, 3] => ("Tensor", format!("{n} 3 3")),
-                [n, 2, 2] => ("Matrix", format!("{n} 4")),
+                [n, 2, 2] => ("Matrix", format!("{n} 2 2")),
                 other => panic!("unexpected shape {other:?}"),
             };
             assert_eq!(a.attribute("AttributeType"), Some(want_type), "{}", f.name);
