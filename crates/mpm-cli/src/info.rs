@@ -1,13 +1,18 @@
 //! `mpm-cli info FILE.h5`: the header of a snapshot or checkpoint and its fields with shapes,
-//! units and value ranges.
+//! units and value ranges. `mpm-cli info DIR`: an overview of a run's output directory.
 
 use crate::error::CliError;
-use mpm_io::{read_file, Data, FileKind};
+use crate::run::numbered_files;
+use mpm_io::{read_file, read_header, Data, FileKind};
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// The report printed by `mpm-cli info` (with the stored scene text when `scene` is set).
+/// The report printed by `mpm-cli info` (with the stored scene text when `scene` is set): of a
+/// file, or of a run directory.
 pub fn info(path: &Path, scene: bool) -> Result<String, CliError> {
+    if path.is_dir() {
+        return run_dir(path);
+    }
     let s = read_file(path).map_err(|e| CliError::BadInput(format!("error: {e}")))?;
     let h = &s.header;
     let mut o = String::new();
@@ -72,5 +77,76 @@ pub fn info(path: &Path, scene: bool) -> Result<String, CliError> {
     if scene {
         let _ = writeln!(o, "\n# scene\n{}", h.scene);
     }
+    Ok(o)
+}
+
+/// An overview of a run directory: its snapshots (count, first and last time and step), its
+/// checkpoints, and the status of `summary.json`.
+fn run_dir(dir: &Path) -> Result<String, CliError> {
+    let snaps = numbered_files(dir, "snap_");
+    let ckpts = numbered_files(dir, "ckpt_");
+    if snaps.is_empty() && ckpts.is_empty() && !dir.join("summary.json").exists() {
+        return Err(CliError::BadInput(format!(
+            "error: {} holds no snapshot, checkpoint or summary.json of a run; give a run's \
+             output directory or one of its .h5 files",
+            dir.display()
+        )));
+    }
+    let mut o = String::new();
+    let _ = writeln!(o, "run directory: {}", dir.display());
+    let describe = |p: &Path| match read_header(p) {
+        Ok(h) => format!("t = {} s, step {}", h.time, h.step),
+        Err(e) => format!("unreadable: {e}"),
+    };
+    match (snaps.first(), snaps.last()) {
+        (Some((_, first)), Some((_, last))) => {
+            let _ = writeln!(o, "snapshots:     {}", snaps.len());
+            let _ = writeln!(
+                o,
+                "  first:       {} ({})",
+                first.display(),
+                describe(first)
+            );
+            let _ = writeln!(o, "  last:        {} ({})", last.display(), describe(last));
+        }
+        _ => {
+            let _ = writeln!(o, "snapshots:     none");
+        }
+    }
+    let _ = writeln!(o, "checkpoints:   {}", ckpts.len());
+    for (_, p) in &ckpts {
+        let _ = writeln!(o, "  {} ({})", p.display(), describe(p));
+    }
+    let series = if dir.join("run.xmf").exists() {
+        "run.xmf"
+    } else {
+        "none"
+    };
+    let _ = writeln!(o, "series:        {series}");
+    let summary = std::fs::read_to_string(dir.join("summary.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+    match summary {
+        Some(s) => {
+            let _ = writeln!(
+                o,
+                "summary.json:  status {}, {} steps to t = {} s, solver {}",
+                s["status"], s["steps"], s["time"], s["solver"]
+            );
+            if let Some(e) = s["error"].as_str() {
+                let _ = writeln!(o, "  error: {e}");
+            }
+        }
+        None => {
+            let _ = writeln!(
+                o,
+                "summary.json:  none (the run is going on, or it was killed)"
+            );
+        }
+    }
+    let _ = writeln!(
+        o,
+        "(mpm-cli info FILE.h5 shows one file's header and fields)"
+    );
     Ok(o)
 }

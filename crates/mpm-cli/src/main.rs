@@ -45,7 +45,7 @@ enum Command {
     },
     /// Print the header and fields of a snapshot or checkpoint.
     Info {
-        /// An .h5 file written by `mpm-cli run`.
+        /// An .h5 file written by `mpm-cli run`, or a run's output directory.
         file: PathBuf,
         /// Also print the scene text stored in the file.
         #[arg(long)]

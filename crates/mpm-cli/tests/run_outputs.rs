@@ -354,3 +354,21 @@ fn example_scenes_check_and_start() {
     }
     assert_eq!(count, 21, "the twenty-one example scenes");
 }
+
+#[test]
+fn info_on_a_run_directory_gives_an_overview_and_on_another_directory_exit_2() {
+    let d = tmpdir("info-dir");
+    let out = run_scene(&d, "water.toml", WATER_2D);
+    let o = cli(&["info", &out.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = stdout(&o);
+    let snaps = numbered_files(&out, "snap_").len();
+    assert!(text.contains(&format!("snapshots:     {snaps}")), "{text}");
+    assert!(text.contains("status \"ok\""), "{text}");
+    let empty = d.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let o = cli(&["info", &empty.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("holds no snapshot"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("HDF5"), "{}", stderr(&o));
+}
