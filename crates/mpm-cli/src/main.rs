@@ -34,7 +34,8 @@ enum Command {
         /// Number of worker threads (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
-        /// No progress output.
+        /// No progress output and no final report (warnings and errors still go to stderr;
+        /// summary.json is written as always).
         #[arg(long)]
         quiet: bool,
     },

@@ -677,7 +677,9 @@ where
                 summary_path.display()
             ))
         })?;
-        self.print_report(wall_s);
+        if !self.quiet {
+            self.print_report(wall_s);
+        }
         Ok(())
     }
 

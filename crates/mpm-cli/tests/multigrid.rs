@@ -102,13 +102,8 @@ fn snapshots_hold_the_multigrid_columns_and_render_them() {
     let d = tmpdir("mg-run");
     let p = write(&d, "all.toml", POROUS_MIX_2D);
     let out = d.join("out");
-    let o = cli(&[
-        "run",
-        &p.to_string_lossy(),
-        "--out",
-        &out.to_string_lossy(),
-        "--quiet",
-    ]);
+    // Without --quiet: the timing table follows the run.
+    let o = cli(&["run", &p.to_string_lossy(), "--out", &out.to_string_lossy()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let text = stdout(&o);
     assert!(
