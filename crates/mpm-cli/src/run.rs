@@ -73,10 +73,12 @@ pub fn numbered_files(dir: &Path, prefix: &str) -> Vec<(u64, PathBuf)> {
 /// Runs a scene. Exit codes follow from the error kind.
 pub fn run(opts: &RunOptions) -> Result<(), CliError> {
     if let Some(n) = opts.threads {
-        if n == 0 {
-            return Err(CliError::BadInput(
-                "error: --threads must be at least 1".into(),
-            ));
+        let limit = max_threads();
+        if n == 0 || n > limit {
+            return Err(CliError::BadInput(format!(
+                "error: --threads {n}: must lie in 1..={limit} (8 per core of this machine, at \
+                 least 64)"
+            )));
         }
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
@@ -94,6 +96,12 @@ pub fn run(opts: &RunOptions) -> Result<(), CliError> {
         AnyBuilt::D2(b) => Runner::new(*b, &scene, &out, opts)?.run(),
         AnyBuilt::D3(b) => Runner::new(*b, &scene, &out, opts)?.run(),
     }
+}
+
+/// The most worker threads `--threads` accepts: 8 per core, at least 64.
+fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    (8 * cores).max(64)
 }
 
 /// Creates the output directory and checks that it can be written.

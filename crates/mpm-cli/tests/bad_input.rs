@@ -720,3 +720,34 @@ fn tlmpm_keys_fit_their_solver() {
         Some("min = [0.5, 0.3]"),
     );
 }
+
+#[test]
+fn tiny_intervals_and_huge_thread_counts_are_rejected() {
+    let d = tmpdir("limits");
+    let t = WATER_2D.replace("interval_steps = 20", "interval = 5e-324");
+    expect_bad(
+        &d,
+        "i.toml",
+        &t,
+        "check",
+        "output.interval",
+        Some("interval ="),
+    );
+    let t = WATER_2D.to_string() + "\n[checkpoint]\ninterval = 1e-13\n";
+    expect_bad(
+        &d,
+        "c.toml",
+        &t,
+        "check",
+        "checkpoint.interval",
+        Some("interval = 1e-13"),
+    );
+    let p = write(&d, "ok.toml", WATER_2D);
+    let o = cli(&["run", &p.to_string_lossy(), "--threads", "10000", "--quiet"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--threads 10000: must lie in 1..="),
+        "{}",
+        stderr(&o)
+    );
+}

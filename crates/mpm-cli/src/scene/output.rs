@@ -179,7 +179,13 @@ fn resolve_interval(
             Some(Interval::Steps { interval_steps: 1 })
         }
         (Some(t), None) => Some(Interval::Time {
-            interval: c.positive(&format!("{table}.interval"), t),
+            interval: c.num(
+                &format!("{table}.interval"),
+                t,
+                |x| x.is_finite() && x >= MIN_INTERVAL,
+                "must be at least 1e-12 s (and finite): shorter intervals cannot be counted in \
+                 double precision over a run",
+            ),
         }),
         (None, Some(n)) => {
             if n == 0 {
@@ -190,6 +196,9 @@ fn resolve_interval(
         (None, None) => None,
     }
 }
+
+/// The shortest output or checkpoint interval (s).
+const MIN_INTERVAL: f64 = 1e-12;
 
 /// Resolves `[checkpoint]`.
 pub(super) fn resolve_checkpoint(c: &mut Checker<'_>, ck: &RawCheckpoint) -> CheckpointDef {
