@@ -158,7 +158,20 @@ where
         params: DiqParams<D>,
         materials: Vec<Material>,
         boundaries: Boundaries<D>,
+        particles: Particles<D>,
+    ) -> Result<Self, SetupError> {
+        Self::at_time(spec, params, materials, boundaries, particles, 0.0)
+    }
+
+    /// [`Self::new`] for a state at time `time` (s): colliders, which move at constant
+    /// velocity, are checked where they are then.
+    fn at_time(
+        spec: GridSpec<D>,
+        params: DiqParams<D>,
+        materials: Vec<Material>,
+        boundaries: Boundaries<D>,
         mut particles: Particles<D>,
+        time: Real,
     ) -> Result<Self, SetupError> {
         params.time_step.validate()?;
         if !params.gravity.iter().all(|g| g.is_finite()) {
@@ -230,16 +243,17 @@ where
                     position: format!("{:?}", particles.x[i].as_slice()),
                 });
             }
-            if let Some(k) = domain
-                .colliders
-                .iter()
-                .position(|c| c.shape.signed_distance(&particles.x[i]).0 < 0.0)
-            {
+            if let Some(k) = domain.colliders.iter().position(|c| {
+                c.shape
+                    .signed_distance(&(particles.x[i] - c.velocity * time))
+                    .0
+                    < 0.0
+            }) {
                 return Err(SetupError::InvalidSetting {
                     setting: "colliders".into(),
                     reason: format!(
-                        "particle {i} at {:?} starts inside collider {k}: fluid cannot overlap a \
-                         collider; move the body or the collider",
+                        "particle {i} at {:?} lies inside collider {k} at t = {time} s: fluid \
+                         cannot overlap a collider; move the body or the collider",
                         particles.x[i].as_slice()
                     ),
                 });
@@ -1036,12 +1050,13 @@ where
                 .ok_or_else(|| RestoreError(format!("checkpoint has no field `{name}`")))
         };
         let (pressure, divergence) = (scalar("diq_pressure")?, scalar("diq_divergence")?);
-        let mut s = Self::new(
+        let mut s = Self::at_time(
             self.domain.spec,
             self.params.clone(),
             self.materials.clone(),
             self.boundaries.clone(),
             particles,
+            state.time,
         )
         .map_err(|e| RestoreError(format!("does not fit this scene: {e}")))?;
         s.time = state.time;
