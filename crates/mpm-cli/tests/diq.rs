@@ -6,15 +6,7 @@ mod common;
 
 use common::*;
 use mpm_cli::run::numbered_files;
-use mpm_io::{read_file, Data};
-
-fn values(s: &mpm_io::Snapshot, name: &str) -> Vec<f64> {
-    let f = s.field(name).unwrap_or_else(|| panic!("field {name}"));
-    let Data::F64 { values, .. } = &f.data else {
-        panic!("{name} is f64")
-    };
-    values.clone()
-}
+use mpm_io::read_file;
 
 #[test]
 fn dam_break_writes_pressure_divergence_and_volume() {
@@ -30,8 +22,8 @@ fn dam_break_writes_pressure_divergence_and_volume() {
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let last = read_file(&numbered_files(&out, "snap_").last().expect("snapshot").1).unwrap();
-    let p = values(&last, "pressure");
-    let div = values(&last, "divergence");
+    let p = f64_field(&last, "pressure");
+    let div = f64_field(&last, "divergence");
     // Pressure is non-negative up to the solver tolerance and bounded by the column's
     // hydrostatic head ρ g h plus the dynamic pressure of a fall of h (ρ g h again).
     let head = 1000.0 * 9.81 * 0.3125;
@@ -103,6 +95,6 @@ fn capped_pressure_cg_stops_with_exit_code_3() {
     assert!(err.contains("stage solve"), "{err}");
     for (_, path) in numbered_files(&out, "snap_") {
         let s = read_file(&path).unwrap();
-        assert!(values(&s, "x").iter().all(|x| x.is_finite()));
+        assert!(f64_field(&s, "x").iter().all(|x| x.is_finite()));
     }
 }

@@ -9,17 +9,6 @@ use common::*;
 use std::path::Path;
 use std::process::Command;
 
-fn python() -> Option<String> {
-    if let Ok(p) = std::env::var("MPM_PYTHON") {
-        return Some(p);
-    }
-    let ok = Command::new("python3")
-        .args(["-c", "import h5py, numpy"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    ok.then(|| "python3".to_string())
-}
-
 fn run(scene: &Path, out: &Path, extra: &[&str]) {
     let (s, o) = (scene.to_string_lossy(), out.to_string_lossy());
     let mut args = vec!["run", &s, "--out", &o, "--quiet"];
@@ -30,7 +19,7 @@ fn run(scene: &Path, out: &Path, extra: &[&str]) {
 
 #[test]
 fn h5py_reads_every_output() {
-    let Some(py) = python() else {
+    let Some(py) = python_with("h5py, numpy") else {
         eprintln!("skipped: no Python with h5py (set MPM_PYTHON)");
         return;
     };

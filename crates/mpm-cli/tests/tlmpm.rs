@@ -61,13 +61,10 @@ fields = ["x"]
 /// `[N, 2]` positions of a snapshot.
 fn positions(path: &Path) -> (f64, Vec<[f64; 2]>) {
     let s = read_file(path).expect("snapshot");
-    let x = s.field("x").expect("x");
-    let Data::F64 { values, .. } = &x.data else {
-        panic!("x is f64")
-    };
+    let x = f64_field(&s, "x");
     (
         s.header.time,
-        values.chunks_exact(2).map(|c| [c[0], c[1]]).collect(),
+        x.chunks_exact(2).map(|c| [c[0], c[1]]).collect(),
     )
 }
 

@@ -10,22 +10,9 @@ use common::*;
 use std::path::Path;
 use std::process::Command;
 
-fn python() -> Option<String> {
-    let has = |py: &str| {
-        Command::new(py)
-            .args(["-c", "import h5py, meshio, vtkmodules.vtkIOXdmf2"])
-            .output()
-            .is_ok_and(|o| o.status.success())
-    };
-    match std::env::var("MPM_PYTHON") {
-        Ok(p) => Some(p),
-        Err(_) => has("python3").then(|| "python3".to_string()),
-    }
-}
-
 #[test]
 fn vtk_and_meshio_read_every_field_with_its_shape() {
-    let Some(py) = python() else {
+    let Some(py) = python_with("h5py, meshio, vtkmodules.vtkIOXdmf2") else {
         eprintln!("skipped: no Python with h5py, meshio and vtk (set MPM_PYTHON)");
         return;
     };

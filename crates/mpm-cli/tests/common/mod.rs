@@ -4,6 +4,29 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+/// The Python that can `import` the comma-separated `modules`: `$MPM_PYTHON` when set (CI
+/// points it at a venv with them, and a missing module then fails the test that uses it), else
+/// `python3` if it has them, else `None` (the test is skipped with a note).
+pub fn python_with(modules: &str) -> Option<String> {
+    if let Ok(p) = std::env::var("MPM_PYTHON") {
+        return Some(p);
+    }
+    Command::new("python3")
+        .args(["-c", &format!("import {modules}")])
+        .output()
+        .is_ok_and(|o| o.status.success())
+        .then(|| "python3".to_string())
+}
+
+/// The `f64` values of field `name` of a snapshot (panics if absent or not `f64`).
+pub fn f64_field(s: &mpm_io::Snapshot, name: &str) -> Vec<f64> {
+    let f = s.field(name).unwrap_or_else(|| panic!("field {name}"));
+    let mpm_io::Data::F64 { values, .. } = &f.data else {
+        panic!("{name} is not f64")
+    };
+    values.clone()
+}
+
 /// The built `mpm-cli` binary.
 pub fn bin() -> &'static str {
     env!("CARGO_BIN_EXE_mpm-cli")
