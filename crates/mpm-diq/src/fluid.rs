@@ -70,9 +70,17 @@ impl<const D: usize> Default for DiqParams<D> {
     }
 }
 
+/// The adaptive step bound of the DIQ solvers, for `mpm-cli check`.
+pub(crate) fn displacement_bound_doc() -> DtBound {
+    DtBound {
+        description: "no particle moves more than cfl·Δx: dt (|v|max + |g| dt) = cfl·Δx",
+        limits_fixed_dt: true,
+    }
+}
+
 /// Particles closer than this fraction of Δx to a wall or collider surface are moved out to that
 /// distance.
-const CLAMP_MARGIN: Real = 1e-3;
+pub(crate) const CLAMP_MARGIN: Real = 1e-3;
 
 /// Particles binned by cell: `order[start[c]..start[c+1]]` are the particles of cell `c`, in
 /// index order.
@@ -81,7 +89,7 @@ pub(crate) struct Bins {
     start: Vec<usize>,
     order: Vec<usize>,
     /// Cell of each particle.
-    cell: Vec<usize>,
+    pub(crate) cell: Vec<usize>,
 }
 
 impl Bins {
@@ -97,19 +105,48 @@ pub(crate) struct NodeFields<const D: usize> {
     /// Momentum, then velocity (m/s).
     pub(crate) velocity: Vec<Vector<D>>,
     /// Particle volume transferred to the node (m^D).
-    volume: Vec<Real>,
+    pub(crate) volume: Vec<Real>,
     pub(crate) inv_mass: Vec<Real>,
 }
 
+/// The points a fluid transfer integrates over: the fluid particles, or (coupled solver) the
+/// particles with part of their mass moved onto nearby interface points.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Points<'a, const D: usize> {
+    /// Positions (m).
+    pub(crate) x: &'a [Vector<D>],
+    /// Velocities (m/s).
+    pub(crate) v: &'a [Vector<D>],
+    /// APIC affine matrices (1/s).
+    pub(crate) affine: &'a [Matrix<D>],
+    /// Masses (kg).
+    pub(crate) mass: &'a [Real],
+    /// Volumes (m^D).
+    pub(crate) volume: &'a [Real],
+}
+
+impl<'a, const D: usize> Points<'a, D> {
+    /// The particles themselves.
+    pub(crate) fn of(ps: &'a Particles<D>) -> Self {
+        Self {
+            x: &ps.x,
+            v: &ps.v,
+            affine: &ps.affine,
+            mass: &ps.mass,
+            volume: &ps.volume0,
+        }
+    }
+}
+
 /// The outcome of one attempt, committed when accepted.
-struct Attempt<const D: usize> {
-    x: Vec<Vector<D>>,
-    v: Vec<Vector<D>>,
-    affine: Vec<Matrix<D>>,
-    pressure: Vec<Real>,
-    divergence: Vec<Real>,
-    solves: Vec<SolveInfo>,
-    events: Vec<(&'static str, u64)>,
+pub(crate) struct Attempt<const D: usize> {
+    pub(crate) x: Vec<Vector<D>>,
+    pub(crate) v: Vec<Vector<D>>,
+    pub(crate) affine: Vec<Matrix<D>>,
+    pub(crate) pressure: Vec<Real>,
+    pub(crate) divergence: Vec<Real>,
+    pub(crate) solves: Vec<SolveInfo>,
+    pub(crate) events: Vec<(&'static str, u64)>,
 }
 
 /// DIQ-MPM's incompressible fluid: APIC transfers to linear B-spline (B1) nodes, cell-constant
@@ -165,7 +202,7 @@ where
 
     /// [`Self::new`] for a state at time `time` (s): colliders, which move at constant
     /// velocity, are checked where they are then.
-    fn at_time(
+    pub(crate) fn at_time(
         spec: GridSpec<D>,
         params: DiqParams<D>,
         materials: Vec<Material>,
@@ -383,10 +420,10 @@ where
     pub fn projection_problem(&self, dt: Real) -> (Constraints<D>, Vec<Real>, Vec<Real>) {
         let ps = &self.particles;
         let bins = self.bin(&ps.x);
-        let mut nodes = self.transfer(&ps.x, &ps.v, &ps.affine, &bins, true);
+        let mut nodes = self.transfer(Points::of(ps), &bins, true);
         // A non-finite state would have failed the last step's guards.
         let _ = self.predict(&mut nodes, dt);
-        let (rows, _) = self.constraints(&ps.x, &bins, &nodes.mass, self.time);
+        let (rows, _) = self.constraints((&ps.x, &ps.volume0), &bins, &nodes.mass, self.time);
         let rhs = rows.residual(&nodes.velocity);
         (rows, nodes.inv_mass, rhs)
     }
@@ -394,6 +431,21 @@ where
     /// Which cells are walls, for the multigrid preconditioner of [`PressureSystem::assemble`].
     pub fn solid_cells(&self) -> impl Fn(usize) -> bool + '_ {
         self.solid_cell()
+    }
+
+    /// Sets the time (s), step count and per-particle pressure (Pa) and divergence (1/s) of a
+    /// resumed run.
+    pub(crate) fn set_state(
+        &mut self,
+        time: Real,
+        steps: u64,
+        pressure: Vec<Real>,
+        divergence: Vec<Real>,
+    ) {
+        self.time = time;
+        self.steps = steps;
+        self.pressure = pressure;
+        self.divergence = divergence;
     }
 
     /// Velocities, for tests and set-ups (m/s).
@@ -410,7 +462,7 @@ where
     pub fn fluid_volume(&self) -> Real {
         let ps = &self.particles;
         let bins = self.bin(&ps.x);
-        let nodes = self.transfer(&ps.x, &ps.v, &ps.affine, &bins, false);
+        let nodes = self.transfer(Points::of(ps), &bins, false);
         let theta = self.node_fraction(&nodes);
         (0..ps.len())
             .map(|p| ps.volume0[p] / self.cell_fraction(&theta, bins.cell[p]).max(1.0))
@@ -433,6 +485,16 @@ where
             .v
             .iter()
             .fold(0.0, |m: Real, v| mpm_core::solver::nan_max(m, v.norm()));
+        self.bound_for(vmax, fraction)
+    }
+
+    /// The adaptive step bound (s) for particles of largest speed `vmax` (m/s): the `dt` with
+    /// `dt (vmax + |g| dt) = cfl Δx`.
+    pub(crate) fn displacement_bound(&self, vmax: Real) -> Real {
+        self.bound_for(vmax, self.cfl())
+    }
+
+    fn bound_for(&self, vmax: Real, fraction: Real) -> Real {
         let g = self.params.gravity.norm();
         let c = fraction * self.domain.spec.dx;
         if vmax.is_nan() {
@@ -483,9 +545,13 @@ where
     /// `2^D` cells around it. With `momentum` false only mass and volume are transferred.
     pub(crate) fn transfer(
         &self,
-        x: &[Vector<D>],
-        v: &[Vector<D>],
-        affine: &[Matrix<D>],
+        Points {
+            x,
+            v,
+            affine,
+            mass,
+            volume,
+        }: Points<'_, D>,
         bins: &Bins,
         momentum: bool,
     ) -> NodeFields<D> {
@@ -518,9 +584,9 @@ where
                         for a in 0..D {
                             w *= if (j >> a) & 1 == 1 { f[a] } else { 1.0 - f[a] };
                         }
-                        let pm = self.particles.mass[p];
+                        let pm = mass[p];
                         m += w * pm;
-                        vol += w * self.particles.volume0[p];
+                        vol += w * volume[p];
                         if momentum {
                             mv += (v[p] + affine[p] * (xn - x[p])) * (w * pm);
                         }
@@ -555,10 +621,11 @@ where
     /// The rows of `J = [G^fᵀ; B]` at positions `x`: a fluid row per cell holding particles
     /// (in cell order), then a boundary row per node with mass whose piece of wall or collider
     /// surface (its node-centred B0 box) holds quadrature points in fluid cells, per wall face
-    /// or collider. Returns the rows and, per fluid row, the fluid volume in its cell (m^D).
+    /// or collider. The points have positions `x` and volumes `volume`. Returns the rows and,
+    /// per fluid row, the fluid volume in its cell (m^D).
     pub(crate) fn constraints(
         &self,
-        x: &[Vector<D>],
+        (x, volume): (&[Vector<D>], &[Real]),
         bins: &Bins,
         mass: &[Real],
         t: Real,
@@ -577,7 +644,7 @@ where
                 let mut g = [Vector::<D>::zeros(); 8];
                 let particles = self.params.gradient_quadrature == GradientQuadrature::Particles;
                 for &p in bins.of(c) {
-                    let vp = self.particles.volume0[p];
+                    let vp = volume[p];
                     vol += vp;
                     if particles {
                         let (_, f) = self.domain.locate(&x[p]).expect("inside");
@@ -689,16 +756,50 @@ where
         correction: &mut PressureSystem<D>,
         times: &mut StageTimes,
     ) -> Result<Attempt<D>, Failure<PressureError>> {
-        let ps = &self.particles;
-        let bins = times.time(Stage::Sort, || self.bin(&ps.x));
-        let mut nodes = times.time(Stage::P2G, || {
-            self.transfer(&ps.x, &ps.v, &ps.affine, &bins, true)
-        });
-        times.time(Stage::GridUpdate, || self.predict(&mut nodes, dt))?;
-        let (pressure_of_cell, divergence_of_cell, info) = times.time(Stage::Solve, || {
+        let (bins, mut nodes) = self.predictor(dt, times)?;
+        let (fields, info) = times.time(Stage::Solve, || {
             self.project(&mut nodes, &bins, dt, projection)
         })?;
-        let (mut x, v, affine) = times.time(Stage::G2P, || self.g2p(&nodes, dt))?;
+        self.finish(&nodes, &bins, fields, &info, dt, correction, times)
+    }
+
+    /// The stages of an attempt before the projection: sort, P2G and the predictor `v*`.
+    pub(crate) fn predictor(
+        &self,
+        dt: Real,
+        times: &mut StageTimes,
+    ) -> Result<(Bins, NodeFields<D>), Failure<PressureError>> {
+        self.predictor_for(Points::of(&self.particles), dt, times)
+    }
+
+    /// [`Self::predictor`] over `points` instead of the particles.
+    pub(crate) fn predictor_for(
+        &self,
+        points: Points<'_, D>,
+        dt: Real,
+        times: &mut StageTimes,
+    ) -> Result<(Bins, NodeFields<D>), Failure<PressureError>> {
+        let bins = times.time(Stage::Sort, || self.bin(points.x));
+        let mut nodes = times.time(Stage::P2G, || self.transfer(points, &bins, true));
+        times.time(Stage::GridUpdate, || self.predict(&mut nodes, dt))?;
+        Ok((bins, nodes))
+    }
+
+    /// The stages of an attempt after the projection: G2P and the position correction, with
+    /// the per-cell pressure and divergence `fields` of the projection mapped to particles.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn finish(
+        &self,
+        nodes: &NodeFields<D>,
+        bins: &Bins,
+        (pressure_of_cell, divergence_of_cell): (Vec<Real>, Vec<Real>),
+        info: &PressureInfo,
+        dt: Real,
+        correction: &mut PressureSystem<D>,
+        times: &mut StageTimes,
+    ) -> Result<Attempt<D>, Failure<PressureError>> {
+        let (mut x, v, affine) =
+            times.time(Stage::G2P, || self.g2p(&self.particles.x, nodes, dt))?;
         let mut solves = vec![SolveInfo {
             name: "pressure",
             iterations: info.iterations,
@@ -710,7 +811,7 @@ where
         }
         if self.params.position_correction {
             if let Some(c) = times.time(Stage::PositionCorrection, || {
-                self.correct_positions(&mut x, dt, correction)
+                self.correct_positions(&mut x, dt, correction, &[])
             })? {
                 solves.push(SolveInfo {
                     name: "position_correction",
@@ -730,6 +831,22 @@ where
             solves,
             events,
         })
+    }
+
+    /// Writes an accepted attempt of `dt` (s) into the state.
+    pub(crate) fn accept(
+        &mut self,
+        a: Attempt<D>,
+        dt: Real,
+    ) -> (Vec<SolveInfo>, Vec<(&'static str, u64)>) {
+        self.particles.x = a.x;
+        self.particles.v = a.v;
+        self.particles.affine = a.affine;
+        self.pressure = a.pressure;
+        self.divergence = a.divergence;
+        self.time += dt;
+        self.steps += 1;
+        (a.solves, a.events)
     }
 
     /// `v* = v + dt g` on nodes with mass; guards non-finite node velocities.
@@ -757,14 +874,16 @@ where
 
     /// The pressure projection: assemble and solve `A λ = J v* − b`, then `v = v* − dt M⁻¹ Jᵀ λ`.
     /// Returns the pressure and the discrete divergence per cell and the solve's summary.
+    #[allow(clippy::type_complexity)]
     fn project(
         &self,
         nodes: &mut NodeFields<D>,
         bins: &Bins,
         dt: Real,
         system: &mut PressureSystem<D>,
-    ) -> Result<(Vec<Real>, Vec<Real>, PressureInfo), Failure<PressureError>> {
-        let (rows, volumes) = self.constraints(&self.particles.x, bins, &nodes.mass, self.time);
+    ) -> Result<((Vec<Real>, Vec<Real>), PressureInfo), Failure<PressureError>> {
+        let ps = &self.particles;
+        let (rows, volumes) = self.constraints((&ps.x, &ps.volume0), bins, &nodes.mass, self.time);
         let (lambda, info) = self.solve_onto(
             &rows,
             &nodes.inv_mass,
@@ -773,15 +892,30 @@ where
             system,
             Stage::Solve,
         )?;
-        let nf = rows.num_fluid();
-        let after = rows.residual(&nodes.velocity);
+        Ok((
+            self.cell_fields(&rows, &lambda, &nodes.velocity, &volumes),
+            info,
+        ))
+    }
+
+    /// The solved pressure (Pa) and the discrete divergence `−G^fᵀ v / V` (1/s) of every cell
+    /// (0 in cells without fluid), from the fluid rows of `rows`, the solution `lambda` and the
+    /// projected node velocities `v` (m/s).
+    pub(crate) fn cell_fields(
+        &self,
+        rows: &Constraints<D>,
+        lambda: &[Real],
+        v: &[Vector<D>],
+        volumes: &[Real],
+    ) -> (Vec<Real>, Vec<Real>) {
+        let after = rows.residual(v);
         let mut pressure = vec![0.0; self.domain.num_cells()];
         let mut divergence = vec![0.0; self.domain.num_cells()];
-        for k in 0..nf {
+        for k in 0..rows.num_fluid() {
             pressure[rows.anchors[k]] = lambda[k];
             divergence[rows.anchors[k]] = -after[k] / volumes[k];
         }
-        Ok((pressure, divergence, info))
+        (pressure, divergence)
     }
 
     /// Moves the node field `v` (velocities in m/s; for the position correction, displacements
@@ -789,7 +923,7 @@ where
     /// `A λ = J v − b` and sets `v ← v − dt M⁻¹ Jᵀ λ`. Returns λ (Pa) and the solve's summary;
     /// a failure is reported in `stage`.
     #[allow(clippy::too_many_arguments)]
-    fn solve_onto(
+    pub(crate) fn solve_onto(
         &self,
         rows: &Constraints<D>,
         inv_mass: &[Real],
@@ -810,18 +944,18 @@ where
         Ok((lambda, info))
     }
 
-    /// APIC G2P, advection and clamping. Guards non-finite values and a displacement above Δx.
+    /// APIC G2P at positions `x`, advection and clamping. Guards non-finite values and a
+    /// displacement above Δx.
     #[allow(clippy::type_complexity)]
-    fn g2p(
+    pub(crate) fn g2p(
         &self,
+        x: &[Vector<D>],
         nodes: &NodeFields<D>,
         dt: Real,
     ) -> Result<(Vec<Vector<D>>, Vec<Vector<D>>, Vec<Matrix<D>>), Failure<PressureError>> {
         let dx = self.domain.spec.dx;
         let t_end = self.time + dt;
-        let out: Vec<(Vector<D>, Vector<D>, Matrix<D>)> = self
-            .particles
-            .x
+        let out: Vec<(Vector<D>, Vector<D>, Matrix<D>)> = x
             .par_iter()
             .map(|x| {
                 let (m, f) = self.domain.locate(x).expect("inside");
@@ -881,19 +1015,34 @@ where
     /// (times the cell's fluid volume) and no flux through walls, by the same SPD system with
     /// the right-hand side of the density error (Kugelstadt et al. 2019's implicit density
     /// projection, on the MPM grid), and move particles by `d` interpolated.
-    fn correct_positions(
+    ///
+    /// `occupied` (m^D per node, or empty) is volume that other material (the coupled solids)
+    /// holds at each node: it counts in `θ`, so fluid is pushed out of cells a solid fills.
+    pub(crate) fn correct_positions(
         &self,
         x: &mut [Vector<D>],
         dt: Real,
         system: &mut PressureSystem<D>,
+        occupied: &[Real],
     ) -> Result<Option<PressureInfo>, Failure<PressureError>> {
         let bins = self.bin(x);
         let zero_v = vec![Vector::<D>::zeros(); x.len()];
         let zero_c = vec![Matrix::<D>::zeros(); x.len()];
-        let nodes = self.transfer(x, &zero_v, &zero_c, &bins, false);
+        let points = Points {
+            x,
+            v: &zero_v,
+            affine: &zero_c,
+            mass: &self.particles.mass,
+            volume: &self.particles.volume0,
+        };
+        let mut nodes = self.transfer(points, &bins, false);
+        for (v, o) in nodes.volume.iter_mut().zip(occupied) {
+            *v += o;
+        }
         let theta = self.node_fraction(&nodes);
         let t_end = self.time + dt;
-        let (mut rows, volumes) = self.constraints(x, &bins, &nodes.mass, t_end);
+        let (mut rows, volumes) =
+            self.constraints((x, &self.particles.volume0), &bins, &nodes.mass, t_end);
         let nf = rows.num_fluid();
         let mut any = false;
         for k in 0..nf {
@@ -957,19 +1106,13 @@ where
         self.correction = correction;
         self.times = times;
         let (a, dt, retries) = result?;
-        self.particles.x = a.x;
-        self.particles.v = a.v;
-        self.particles.affine = a.affine;
-        self.pressure = a.pressure;
-        self.divergence = a.divergence;
-        self.time += dt;
-        self.steps += 1;
+        let (solves, events) = self.accept(a, dt);
         Ok(StepInfo {
             dt,
             retries,
             time: self.time,
-            solves: a.solves,
-            events: a.events,
+            solves,
+            events,
         })
     }
 }
@@ -1007,10 +1150,7 @@ where
     }
 
     fn dt_bound(&self) -> DtBound {
-        DtBound {
-            description: "no particle moves more than cfl·Δx: dt (|v|max + |g| dt) = cfl·Δx",
-            limits_fixed_dt: true,
-        }
+        crate::fluid::displacement_bound_doc()
     }
 
     fn diagnostics(&self) -> Diagnostics<D> {

@@ -1,5 +1,7 @@
-//! DIQ-MPM (`diq-mpm.txt`, §4–5), part 1: the incompressible MPM fluid and the sparse SPD
-//! pressure-only system that the coupled solver builds on.
+//! DIQ-MPM (`diq-mpm.txt`, §4–5): the incompressible MPM fluid ([`DiqFluid`]), the sparse SPD
+//! pressure-only system ([`pressure`]) and the coupling of the fluid to mixed total-Lagrangian
+//! solids by dual interface quadrature ([`DiqCoupled`], see [`coupled`] for the derivation of
+//! Eq. 35 and what is measured of it).
 //!
 //! # The fluid step (§5.1, fluid stages)
 //!
@@ -68,17 +70,20 @@
 //!
 //! - Eq. 35 writes `A11 = S^s/Δt + Δt G^{fT} M^{s−1} G^s`; the solid block must use the solid
 //!   gradient on both sides, `Δt G^{sT} M^{s−1} G^s` (the Schur complement of Eq. 26's first
-//!   two rows). Part 2 implements that.
+//!   two rows). [`coupled`] implements that and a test checks the assembled matrix against
+//!   the dense `Δt J M⁻¹ Jᵀ + C`.
 //! - Eq. 30's `G^f` carries the minus sign of the integration by parts, so the momentum row of
 //!   Eq. 26 reads `M v/Δt + G p + Bᵀ y = M v*/Δt`, and the recovered velocity is
 //!   `v* − Δt M⁻¹(G p + Bᵀ y)` as implemented.
 //! - Eq. 23 writes the fluid test function `t^s`; it is the fluid pressure's test function
 //!   `t^f`.
 
+pub mod coupled;
 pub mod domain;
 pub mod fluid;
 pub mod pressure;
 
+pub use coupled::{CoupledError, DiqCoupled, InterfacePoints, SolidParams};
 pub use domain::{Domain, WallPoint, WallSample};
 pub use fluid::{DiqFluid, DiqParams, GradientQuadrature};
 pub use pressure::{
@@ -86,5 +91,7 @@ pub use pressure::{
     UnknownKind,
 };
 
+#[cfg(test)]
+mod coupled_tests;
 #[cfg(test)]
 mod tests;

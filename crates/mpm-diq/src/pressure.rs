@@ -49,6 +49,12 @@ pub enum UnknownKind {
     /// A boundary pressure `y` (Pa) on a cell that holds wall or collider quadrature points: a
     /// row of `B`.
     Wall,
+    /// A solid pressure `P^s` (Pa) on a reference-grid cell that holds solid particles: a row
+    /// of `G^{sT}` with the compliance `S^s/Δt` on the diagonal (Eq. 35's `A11`).
+    SolidPressure,
+    /// An interface pressure `h` (Pa) on a current-grid cell that holds interface quadrature
+    /// points: a row of `[−H^s, H^f]` (Eq. 35's fourth row).
+    Interface,
 }
 
 /// How the pressure system is solved.
@@ -172,8 +178,11 @@ pub struct PressureInfo {
 /// come first, in cell order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Constraints<const D: usize> {
-    /// Cells per axis of the grid (nodes per axis minus one).
+    /// Cells per axis of the fluid grid (nodes per axis minus one).
     pub cell_dims: [usize; D],
+    /// Velocity slots the rows index: the fluid grid's nodes, then any appended with
+    /// [`Self::append_nodes`] (the solid's reference nodes in the coupled system).
+    pub num_nodes: usize,
     /// Kind of each unknown.
     pub kinds: Vec<UnknownKind>,
     /// Cell (linear index, axis 0 fastest) of a fluid row; node (linear index) of a boundary
@@ -182,8 +191,12 @@ pub struct Constraints<const D: usize> {
     row_ptr: Vec<usize>,
     nodes: Vec<usize>,
     coeffs: Vec<Vector<D>>,
-    /// `b_k` (m³/s in 3D): the prescribed flux of a boundary row, 0 on fluid rows.
+    /// `b_k` (m³/s in 3D): the prescribed flux of a boundary row, 0 on fluid rows,
+    /// `−S^s_k P^{s,n}_k/Δt` on solid-pressure rows.
     pub offsets: Vec<Real>,
+    /// `D_k` (m⁴ s/kg in 3D): added to the diagonal of the assembled `A` after scaling; the
+    /// solid compliance `S^s_k/Δt` on solid-pressure rows, 0 elsewhere.
+    pub diagonal: Vec<Real>,
     /// Whether the fluid is enclosed (no free surface), so that `A` has the constant pressure
     /// as a (near) null vector: the first unknown is then pinned (see [`PressureSystem`]).
     pub pin_gauge: bool,
@@ -194,14 +207,24 @@ impl<const D: usize> Constraints<D> {
     pub fn new(cell_dims: [usize; D]) -> Self {
         Self {
             cell_dims,
+            num_nodes: cell_dims.iter().map(|c| c + 1).product(),
             kinds: Vec::new(),
             anchors: Vec::new(),
             row_ptr: vec![0],
             nodes: Vec::new(),
             coeffs: Vec::new(),
             offsets: Vec::new(),
+            diagonal: Vec::new(),
             pin_gauge: false,
         }
+    }
+
+    /// Appends `count` velocity slots after the current ones and returns the index of the
+    /// first (the offset of the appended block).
+    pub fn append_nodes(&mut self, count: usize) -> usize {
+        let first = self.num_nodes;
+        self.num_nodes += count;
+        first
     }
 
     /// Appends a row: entries `(node, R_k[node])` in any order (repeated nodes are summed,
@@ -239,6 +262,7 @@ impl<const D: usize> Constraints<D> {
         self.kinds.push(kind);
         self.anchors.push(anchor);
         self.offsets.push(offset);
+        self.diagonal.push(0.0);
     }
 
     /// Number of unknowns.
@@ -318,7 +342,7 @@ impl<const D: usize> Constraints<D> {
 
     /// The sparsity pattern: unknowns couple when their rows share a node.
     fn pattern(&self) -> Result<SymmetricPattern, PatternError> {
-        let num_nodes: usize = self.cell_dims.iter().map(|c| c + 1).product();
+        let num_nodes = self.num_nodes;
         let mut ptr = vec![0usize; num_nodes + 1];
         for &n in &self.nodes {
             ptr[n + 1] += 1;
@@ -344,6 +368,7 @@ impl<const D: usize> Constraints<D> {
     /// Whether `other` has the same unknowns touching the same nodes (same pattern).
     fn same_structure(&self, other: &Self) -> bool {
         self.cell_dims == other.cell_dims
+            && self.num_nodes == other.num_nodes
             && self.kinds == other.kinds
             && self.row_ptr == other.row_ptr
             && self.nodes == other.nodes
@@ -446,7 +471,8 @@ impl<const D: usize> PressureSystem<D> {
             let k = col.block();
             for pos in 0..col.num_blocks() {
                 let l = col.block_row(pos);
-                col.add(pos, 0, 0, rows.entry(k, l, inv_mass, scale));
+                let d = if k == l { rows.diagonal[k] } else { 0.0 };
+                col.add(pos, 0, 0, rows.entry(k, l, inv_mass, scale) + d);
             }
         });
         if rows.pin_gauge && !rows.is_empty() {

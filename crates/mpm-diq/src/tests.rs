@@ -115,8 +115,8 @@ fn assembled_matrix_is_symmetric_positive_and_equals_dense_schur_complement() {
     .unwrap();
     let ps = fluid.particles();
     let bins = fluid.bin(&ps.x);
-    let nodes = fluid.transfer(&ps.x, &ps.v, &ps.affine, &bins, true);
-    let (rows, _) = fluid.constraints(&ps.x, &bins, &nodes.mass, 0.0);
+    let nodes = fluid.transfer(crate::fluid::Points::of(ps), &bins, true);
+    let (rows, _) = fluid.constraints((&ps.x, &ps.volume0), &bins, &nodes.mass, 0.0);
     assert!(rows.kinds.contains(&UnknownKind::Wall));
     assert!(!rows.pin_gauge, "a blob with air above has a free surface");
     let dt = 1e-3;
@@ -262,15 +262,15 @@ fn free_surface_pressure_vanishes_and_enclosed_fluid_is_pinned() {
     .unwrap();
     let ps = full.particles();
     let bins = full.bin(&ps.x);
-    let nodes = full.transfer(&ps.x, &ps.v, &ps.affine, &bins, false);
-    let (rows, _) = full.constraints(&ps.x, &bins, &nodes.mass, 0.0);
+    let nodes = full.transfer(crate::fluid::Points::of(ps), &bins, false);
+    let (rows, _) = full.constraints((&ps.x, &ps.volume0), &bins, &nodes.mass, 0.0);
     assert!(rows.pin_gauge);
     let ps = fluid.particles();
     let bins = fluid.bin(&ps.x);
-    let nodes = fluid.transfer(&ps.x, &ps.v, &ps.affine, &bins, false);
+    let nodes = fluid.transfer(crate::fluid::Points::of(ps), &bins, false);
     assert!(
         !fluid
-            .constraints(&ps.x, &bins, &nodes.mass, 0.0)
+            .constraints((&ps.x, &ps.volume0), &bins, &nodes.mass, 0.0)
             .0
             .pin_gauge
     );

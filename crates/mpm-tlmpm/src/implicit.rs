@@ -265,6 +265,73 @@ where
 
     crate::core::shared_accessors!();
 
+    /// Coupling stage 1 of a step of `dt` (s) driven from outside, for a solver that adds its
+    /// own projection between the elastic solve and G2P (DIQ-MPM §4.3's operator splitting):
+    /// P2G, external forces, contact and the Newton elastic solve, which leave the intermediate
+    /// node velocities `V* = u/Δt` in [`Self::node_velocities`]. Nothing is committed; a failure
+    /// leaves the particles untouched.
+    pub fn elastic_predictor(
+        &mut self,
+        dt: Real,
+    ) -> Result<Option<ContactStats>, mpm_core::Failure<crate::NewtonError>> {
+        if self.implicit.linear == LinearSolver::Cholesky {
+            self.analyse()
+                .map_err(|e| Failure::Solve(Stage::Solve, linear_error(e)))?;
+        }
+        let (core, ws, stats, times) = (
+            &mut self.core,
+            &mut self.ws,
+            &mut self.stats,
+            &mut self.newton_times,
+        );
+        Ok(predict(core, ws, stats, times, &self.implicit, dt)?.1)
+    }
+
+    /// The node velocities of the current attempt (m/s), `u_i/Δt` per active node, after
+    /// [`Self::elastic_predictor`] or [`Self::set_node_velocities`].
+    pub fn node_velocities(&self, dt: Real) -> Vec<Vector<D>> {
+        self.core.displacement.iter().map(|u| u / dt).collect()
+    }
+
+    /// Replaces the node velocities of the current attempt (m/s; one per active node) by `v`,
+    /// keeping the prescribed components of fixed nodes.
+    pub fn set_node_velocities(&mut self, v: &[Vector<D>], dt: Real) {
+        let c = &self.core.constraints;
+        for (i, (u, vi)) in self.core.displacement.iter_mut().zip(v).enumerate() {
+            *u = c.displacement(i, vi * dt, dt);
+        }
+    }
+
+    /// Whether active node `i` has a prescribed (fixed) component, so that a coupling
+    /// projection must treat it as infinitely heavy.
+    pub fn node_is_fixed(&self, i: usize) -> bool {
+        (0..D).any(|a| !self.core.constraints.is_free(i, a))
+    }
+
+    /// Coupling stage 2: G2P from the current node velocities with the deformation update and
+    /// the guard checks, into scratch storage (the particles are not modified yet).
+    pub fn transfer_back(&mut self, dt: Real) -> Result<(), mpm_core::Failure<crate::NewtonError>> {
+        let core = &mut self.core;
+        self.stats.time(Stage::G2P, || core.grid_to_particles(dt))
+    }
+
+    /// Coupling stage 3, once the whole coupled attempt of `dt` (s) is accepted: writes the
+    /// G2P results into the particles, advances time and the step count, and runs the A-ULMPM
+    /// reference update when it is on. Returns whether the reference moved.
+    pub fn commit_step(&mut self, dt: Real) -> Result<bool, mpm_core::Failure<crate::NewtonError>> {
+        let core = &mut self.core;
+        self.stats.time(Stage::Commit, || core.commit(dt));
+        core.time += dt;
+        core.steps += 1;
+        let updated = self
+            .stats
+            .time(Stage::ReferenceUpdate, || core.reference_update())?;
+        if updated {
+            self.ws.objective.sparse = None;
+        }
+        Ok(updated)
+    }
+
     /// Continues from a checkpoint: the solver must have been built from the checkpoint's
     /// particles with the original parameters; `state` (from [`Self::state`]) restores the
     /// reference configuration, the A-ULMPM columns, the time and the step count.
@@ -353,12 +420,28 @@ fn advance<const D: usize>(
 where
     Dim<D>: DimOps<D>,
 {
+    let (newton, contact) = predict(core, ws, stats, times, implicit, dt)?;
+    stats.time(Stage::G2P, || core.grid_to_particles(dt))?;
+    stats.time(Stage::Commit, || core.commit(dt));
+    Ok((newton, contact))
+}
+
+/// The stages of an attempt up to the elastic solve: P2G, external forces, contact, Newton.
+fn predict<const D: usize>(
+    core: &mut Core<D>,
+    ws: &mut Workspace<D>,
+    stats: &mut StageTimes,
+    times: &mut NewtonTimes,
+    implicit: &ImplicitParams,
+    dt: Real,
+) -> Result<(NewtonInfo, Option<ContactStats>), Failure>
+where
+    Dim<D>: DimOps<D>,
+{
     stats.time(Stage::P2G, || core.momentum_to_grid());
     stats.time(Stage::ExternalForces, || core.external_forces());
     let contact = stats.time(Stage::Contact, || core.contact(dt));
     let newton = stats.time(Stage::Solve, || solve_grid(core, ws, times, implicit, dt))?;
-    stats.time(Stage::G2P, || core.grid_to_particles(dt))?;
-    stats.time(Stage::Commit, || core.commit(dt));
     Ok((newton, contact))
 }
 

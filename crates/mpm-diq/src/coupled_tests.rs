@@ -1,0 +1,368 @@
+//! Tests of the coupled solver: Eq. 35's matrix, momentum, buoyancy, determinism and resume.
+
+use crate::coupled::{DiqCoupled, SolidParams};
+use crate::fluid::DiqParams;
+use crate::pressure::{PressureParams, PressureSystem, UnknownKind};
+use mpm_core::boundary::{Boundaries, Contact, DomainWalls};
+use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
+use mpm_core::{
+    Columns, GridSpec, Material, ParticleInit, Particles, Real, Solver, TimeStepPolicy, Vector,
+};
+
+const RHO_F: Real = 1000.0;
+
+fn materials(rho_s: Real, young: Real) -> Vec<Material> {
+    vec![
+        Material::Fluid(FluidMaterial {
+            density: RHO_F,
+            eos: Tait {
+                bulk_modulus: 2e6,
+                gamma: 7.0,
+            },
+            viscosity: 0.0,
+        }),
+        Material::Solid(SolidMaterial {
+            density: rho_s,
+            elastic: ElasticModel::NeoHookean(Lame::from_young_poisson(young, 0.3)),
+            plasticity: Default::default(),
+        }),
+    ]
+}
+
+/// A lattice of 2 particles per cell and axis over `[lo, hi]`, keeping the points where
+/// `keep(x)`, of material `material` with density `rho` and velocity `v`.
+fn lattice<const D: usize>(
+    ps: &mut Particles<D>,
+    (lo, hi): ([Real; D], [Real; D]),
+    dx: Real,
+    (material, rho): (u32, Real),
+    v: Vector<D>,
+    keep: impl Fn(&Vector<D>) -> bool,
+) {
+    let h = dx / 2.0;
+    let counts: [usize; D] = std::array::from_fn(|a| ((hi[a] - lo[a]) / h).round() as usize);
+    for i in 0..counts.iter().product() {
+        let mut rest = i;
+        let x = Vector::<D>::from_fn(|a, _| {
+            let k = rest % counts[a];
+            rest /= counts[a];
+            lo[a] + (k as Real + 0.5) * h
+        });
+        if keep(&x) {
+            ps.push(ParticleInit {
+                x,
+                v,
+                mass: rho * h.powi(D as i32),
+                volume0: h.powi(D as i32),
+                material,
+                affine: mpm_core::Matrix::<D>::zeros(),
+            });
+        }
+    }
+}
+
+fn params<const D: usize>(dt_max: Real, gravity: bool) -> DiqParams<D> {
+    let mut p = DiqParams::<D> {
+        time_step: TimeStepPolicy::Adaptive {
+            cfl: 0.4,
+            dt_max,
+            dt_min: 1e-9,
+        },
+        pressure: PressureParams {
+            rel_tol: 1e-10,
+            ..PressureParams::default()
+        },
+        ..DiqParams::default()
+    };
+    if !gravity {
+        p.gravity = Vector::<D>::zeros();
+    }
+    p
+}
+
+fn walls<const D: usize>(on: bool) -> Boundaries<D> {
+    Boundaries {
+        walls: on.then_some(DomainWalls {
+            contact: Contact::default(),
+            thickness: 1,
+        }),
+        colliders: Vec::new(),
+    }
+}
+
+fn columns() -> Columns {
+    Columns {
+        deformation_gradient: true,
+        ..Columns::default()
+    }
+}
+
+/// A 1 m × 1 m tank of `n` cells per axis with water up to `depth` and a square elastic block
+/// of side `side` and density `rho_s` whose bottom sits at `bottom`, centred in x.
+fn floating(
+    n: usize,
+    rho_s: Real,
+    depth: Real,
+    side: Real,
+    bottom: Real,
+    corr: bool,
+) -> DiqCoupled<2> {
+    let dx = 1.0 / n as Real;
+    let (x0, x1) = (0.5 - side / 2.0, 0.5 + side / 2.0);
+    let inside = move |x: &Vector<2>| {
+        x[0] > x0 - 0.25 * dx && x[0] < x1 + 0.25 * dx && x[1] > bottom - 0.25 * dx
+    };
+    let mut ps = Particles::new(columns());
+    lattice(
+        &mut ps,
+        ([0.0, 0.0], [1.0, depth]),
+        dx,
+        (0, RHO_F),
+        Vector::<2>::zeros(),
+        |x| !inside(x),
+    );
+    lattice(
+        &mut ps,
+        ([x0, bottom], [x1, bottom + side]),
+        dx,
+        (1, rho_s),
+        Vector::<2>::zeros(),
+        |_| true,
+    );
+    DiqCoupled::new(
+        GridSpec::new(Vector::<2>::from_element(-dx), dx, [n + 3, n + 3]),
+        DiqParams {
+            position_correction: corr,
+            ..params(5e-3, true)
+        },
+        SolidParams::default(),
+        materials(rho_s, 1e5),
+        walls(true),
+        ps,
+    )
+    .unwrap()
+}
+
+#[test]
+fn coupled_matrix_is_eq35_symmetric_and_positive_definite() {
+    let mut s = floating(16, 500.0, 0.5, 0.25, 0.375, true);
+    let dt = 2e-3;
+    let (rows, inv_mass, _) = s.coupled_problem(dt).unwrap();
+    let count = |k: UnknownKind| rows.kinds.iter().filter(|&&x| x == k).count();
+    assert!(count(UnknownKind::Fluid) > 50);
+    assert!(count(UnknownKind::Wall) > 10);
+    assert!(
+        count(UnknownKind::SolidPressure) >= 16,
+        "4×4 solid cells at least"
+    );
+    assert!(
+        count(UnknownKind::Interface) >= 4,
+        "the wetted faces of the block: {} interface rows, {} points",
+        count(UnknownKind::Interface),
+        s.interface_points().particle.len()
+    );
+    let mut system = PressureSystem::<2>::new();
+    system
+        .assemble(&rows, &inv_mass, dt, &PressureParams::default(), &|_| false)
+        .unwrap();
+    let a = system.matrix().unwrap().to_dense();
+    let (n, slots) = (rows.len(), rows.num_nodes);
+    let mut j = nalgebra::DMatrix::<Real>::zeros(n, 2 * slots);
+    for k in 0..n {
+        let (nodes, coeffs) = rows.row(k);
+        for (node, r) in nodes.iter().zip(coeffs) {
+            for c in 0..2 {
+                j[(k, 2 * node + c)] += r[c];
+            }
+        }
+    }
+    let minv = nalgebra::DMatrix::<Real>::from_diagonal(&nalgebra::DVector::from_iterator(
+        2 * slots,
+        (0..2 * slots).map(|i| inv_mass[i / 2]),
+    ));
+    let compliance = nalgebra::DMatrix::<Real>::from_diagonal(&nalgebra::DVector::from_vec(
+        rows.diagonal.clone(),
+    ));
+    let dense = &j * minv * j.transpose() * dt + compliance;
+    let scale = dense.amax();
+    assert!(
+        (&a - &dense).amax() <= 1e-12 * scale,
+        "assembled ≠ Δt J M⁻¹ Jᵀ + C"
+    );
+    assert!(
+        (&a - a.transpose()).amax() <= 1e-14 * scale,
+        "not symmetric"
+    );
+    // Eq. 35's zero blocks: solid pressures couple to nothing but solid pressures and
+    // interface pressures.
+    for k in 0..n {
+        for l in 0..n {
+            let (kk, kl) = (rows.kinds[k], rows.kinds[l]);
+            if kk == UnknownKind::SolidPressure
+                && matches!(kl, UnknownKind::Fluid | UnknownKind::Wall)
+            {
+                assert_eq!(a[(k, l)], 0.0, "A1{{2,3}} must vanish");
+            }
+        }
+    }
+    // A11 only has the compliance S/Δt on the diagonal beyond Δt G^sᵀ M^s⁻¹ G^s: positive.
+    for k in 0..n {
+        if rows.kinds[k] == UnknownKind::SolidPressure {
+            assert!(rows.diagonal[k] > 0.0);
+        } else {
+            assert_eq!(rows.diagonal[k], 0.0);
+        }
+    }
+    let eig = nalgebra::SymmetricEigen::new(a).eigenvalues;
+    assert!(
+        eig.min() > 1e-12 * eig.max(),
+        "smallest eigenvalue {:e} (largest {:e})",
+        eig.min(),
+        eig.max()
+    );
+}
+
+#[test]
+fn total_momentum_of_solid_and_fluid_is_conserved_without_gravity_and_walls() {
+    // A block moving at 0.5 m/s into a blob of water at rest, far from the grid's edges.
+    let n = 24;
+    let dx = 1.0 / n as Real;
+    let mut ps = Particles::new(columns());
+    lattice(
+        &mut ps,
+        ([0.45, 0.3], [0.8, 0.7]),
+        dx,
+        (0, RHO_F),
+        Vector::<2>::zeros(),
+        |_| true,
+    );
+    lattice(
+        &mut ps,
+        ([0.2, 0.4], [0.4, 0.6]),
+        dx,
+        (1, 800.0),
+        Vector::<2>::new(0.5, 0.1),
+        |_| true,
+    );
+    let mut s = DiqCoupled::new(
+        GridSpec::new(Vector::<2>::zeros(), dx, [n + 1, n + 1]),
+        params(2e-3, false),
+        SolidParams::default(),
+        materials(800.0, 1e5),
+        walls(false),
+        ps,
+    )
+    .unwrap();
+    let momentum = |s: &DiqCoupled<2>| {
+        let p = s.particles();
+        (0..p.len()).fold(Vector::<2>::zeros(), |m, i| m + p.v[i] * p.mass[i])
+    };
+    let fluid_momentum = |s: &DiqCoupled<2>| {
+        let p = s.particles();
+        s.fluid_indices()
+            .iter()
+            .fold(Vector::<2>::zeros(), |m, &i| m + p.v[i] * p.mass[i])
+    };
+    let p0 = momentum(&s);
+    let mut touched = 0;
+    for _ in 0..60 {
+        let info = s.advance().unwrap();
+        touched += info
+            .events
+            .iter()
+            .find(|e| e.0 == "interface_points")
+            .map_or(0, |e| e.1);
+    }
+    let p1 = momentum(&s);
+    assert!(touched > 0, "the block must reach the water");
+    assert!(
+        fluid_momentum(&s).norm() > 0.02 * p0.norm(),
+        "the water must be pushed: {:?}",
+        fluid_momentum(&s)
+    );
+    assert!(
+        (p1 - p0).norm() <= 1e-11 * p0.norm(),
+        "momentum drift {:e} of {:e}",
+        (p1 - p0).norm(),
+        p0.norm()
+    );
+}
+
+#[test]
+fn bitwise_identical_across_threads_and_resume() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut s = floating(16, 750.0, 0.5, 0.25, 0.375, true);
+            for _ in 0..8 {
+                s.advance().unwrap();
+            }
+            let mid = s.checkpoint();
+            for _ in 0..8 {
+                s.advance().unwrap();
+            }
+            (mid, s.checkpoint())
+        })
+    };
+    let (mid1, end1) = run(1);
+    let (_, end2) = run(2);
+    assert_eq!(end1, end2, "1 vs 2 threads");
+    let mut resumed = floating(16, 750.0, 0.5, 0.25, 0.375, true);
+    resumed.restore(&mid1).unwrap();
+    assert_eq!(resumed.steps(), 8);
+    for _ in 0..8 {
+        resumed.advance().unwrap();
+    }
+    assert_eq!(resumed.checkpoint(), end1, "resume from checkpoint");
+    // The solid pressure is part of the state: it is non-zero after the block was loaded.
+    assert!(resumed.solid_pressure().iter().any(|&p| p.abs() > 1.0));
+}
+
+#[test]
+fn solids_only_plan_has_no_fluid_stage() {
+    let dx = 1.0 / 16.0;
+    let mut ps = Particles::new(columns());
+    lattice(
+        &mut ps,
+        ([0.3, 0.3], [0.6, 0.6]),
+        dx,
+        (1, 1000.0),
+        Vector::<2>::zeros(),
+        |_| true,
+    );
+    let mut s = DiqCoupled::new(
+        GridSpec::new(Vector::<2>::from_element(-dx), dx, [19, 19]),
+        params(2e-3, true),
+        SolidParams::default(),
+        materials(1000.0, 1e5),
+        walls(true),
+        ps,
+    )
+    .unwrap();
+    let plan = s.plan().ids();
+    for stage in [
+        mpm_core::Stage::Sort,
+        mpm_core::Stage::GridUpdate,
+        mpm_core::Stage::PositionCorrection,
+    ] {
+        assert!(!plan.contains(&stage), "{stage:?} in a solids-only plan");
+    }
+    // A falling block without fluid: its centre of mass accelerates at g.
+    let com = |s: &DiqCoupled<2>| {
+        let p = s.particles();
+        (0..p.len()).map(|i| p.v[i][1] * p.mass[i]).sum::<Real>() / p.mass.iter().sum::<Real>()
+    };
+    let mut t = 0.0;
+    for _ in 0..10 {
+        t += s.advance().unwrap().dt;
+    }
+    assert!(
+        (com(&s) + 9.81 * t).abs() <= 1e-9 * 9.81 * t,
+        "{} vs {}",
+        com(&s),
+        -9.81 * t
+    );
+}
