@@ -141,7 +141,10 @@ pub(crate) fn verify(path: &Path, scope: Scope) -> Result<(), IoError> {
     if recorded != len {
         return Err(damaged(
             path,
-            format!("it is {len} bytes long, its checksum block says {recorded} (truncated or extended)"),
+            format!(
+                "it is {len} bytes long, its checksum block says {recorded} (truncated or \
+                 extended)"
+            ),
         ));
     }
     let entries = parse_entries(&block, len).map_err(|m| block_err(&m))?;
