@@ -7,6 +7,7 @@ pub mod check;
 pub mod error;
 pub mod font;
 pub mod info;
+pub mod input;
 pub mod mesh;
 pub mod render;
 pub mod run;

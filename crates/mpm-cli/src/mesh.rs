@@ -8,6 +8,7 @@
 //! magnitude (Jacobson et al. 2013). The winding number is exact for closed meshes of either
 //! orientation and degrades gracefully for meshes with small holes.
 
+use crate::input::{read_text, MAX_MESH_BYTES};
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -23,10 +24,10 @@ pub struct TriMesh {
 /// Largest number of triangles read (memory and run-time guard).
 pub const MAX_TRIANGLES: usize = 2_000_000;
 
-/// Reads an OBJ file. Errors are one-line messages naming the file and, for syntax errors, the
-/// line.
+/// Reads an OBJ file (a regular file of at most [`MAX_MESH_BYTES`]). Errors are one-line
+/// messages naming the file and, for syntax errors, the line.
 pub fn read_obj(path: &Path) -> Result<TriMesh, String> {
-    let text = std::fs::read_to_string(path)
+    let text = read_text(path, MAX_MESH_BYTES)
         .map_err(|e| format!("cannot read mesh file {}: {e}", path.display()))?;
     parse_obj(&text).map_err(|e| format!("mesh file {}: {e}", path.display()))
 }

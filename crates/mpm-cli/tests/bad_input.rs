@@ -751,3 +751,155 @@ fn tiny_intervals_and_huge_thread_counts_are_rejected() {
         stderr(&o)
     );
 }
+
+#[test]
+fn tiny_densities_are_rejected_at_the_material_key_for_every_solver() {
+    let d = tmpdir("density");
+    let read = |name: &str| std::fs::read_to_string(scenes_dir().join(name)).expect("scene");
+    let scenes = [
+        (
+            "explicit",
+            JELLY_3D.replace("preset = \"jelly\"", "preset = \"jelly\"\ndensity = 1000.0"),
+        ),
+        (
+            "tait",
+            WATER_2D.replace(
+                "preset = \"water\"",
+                "model = \"tait\"\nbulk_modulus = 1e5\ndensity = 1000.0",
+            ),
+        ),
+        ("tlmpm", read("tlmpm_cantilever_2d.toml")),
+        ("diq", read("diq_dam_break_2d.toml")),
+    ];
+    for (solver, text) in &scenes {
+        assert!(text.contains("density = 1000.0"), "{solver}");
+        for rho in ["5e-324", "1e-7", "-0.0", "nan"] {
+            let t = text.replacen("density = 1000.0", &format!("density = {rho}"), 1);
+            let name = format!("{solver}.toml");
+            for cmd in ["check", "run"] {
+                expect_bad(
+                    &d,
+                    &name,
+                    &t,
+                    cmd,
+                    "materials[0].density",
+                    Some("density ="),
+                );
+            }
+        }
+        // The smallest accepted density passes `check`.
+        let t = text.replacen("density = 1000.0", "density = 1e-6", 1);
+        let p = write(&d, "lightest.toml", &t);
+        let o = cli(&["check", &p.to_string_lossy()]);
+        assert_eq!(o.status.code(), Some(0), "{solver}: {}", stderr(&o));
+    }
+}
+
+#[test]
+fn limits_are_printed_exactly() {
+    let d = tmpdir("exact-limits");
+    // Just above the limit of 16,000,000 particles, which a rounded message printed as
+    // "about 1.606e7 particles (limit 2e7)".
+    let t = WATER_2D.replace(
+        "max = [0.3, 0.3]",
+        "max = [0.3, 0.3]\nsampling = \"poisson\"\npoisson_radius = 4.99e-5",
+    );
+    expect_bad(
+        &d,
+        "many.toml",
+        &t,
+        "check",
+        "bodies[0].poisson_radius",
+        Some("poisson_radius"),
+    );
+    let err = stderr(&cli(&["check", &d.join("many.toml").to_string_lossy()]));
+    assert!(err.contains("(limit 16,000,000)"), "{err}");
+    let about: u64 = err
+        .split("would get about ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .map(|s| s.replace(',', "").parse().expect("an integer count"))
+        .expect("count");
+    // The 0.2 m × 0.2 m box over the disk area r² (the builder's estimate), rounded up.
+    let side = 0.3f64 - 0.1;
+    assert_eq!(about, (side * side / 4.99e-5f64.powi(2)).ceil() as u64);
+    assert_eq!(about, 16_064_193);
+    let t = WATER_2D.replace("dx = 0.03125", "dx = 0.0000625");
+    expect_bad(&d, "nodes.toml", &t, "check", "grid.dx", Some("dx ="));
+    let err = stderr(&cli(&["check", &d.join("nodes.toml").to_string_lossy()]));
+    assert!(
+        err.contains("the grid would have 64,016,001 nodes (limit 64,000,000)"),
+        "{err}"
+    );
+}
+
+#[test]
+fn devices_pipes_and_huge_files_are_not_read() {
+    let d = tmpdir("devices");
+    // A mesh that is a device: refused at once instead of read forever.
+    let t = MESH_3D.replace("file = \"cube.obj\"", "file = \"/dev/urandom\"");
+    expect_bad(
+        &d,
+        "urandom.toml",
+        &t,
+        "check",
+        "bodies[0].file",
+        Some("file ="),
+    );
+    let err = stderr(&cli(&["check", &d.join("urandom.toml").to_string_lossy()]));
+    assert!(
+        err.contains("/dev/urandom") && err.contains("not a regular file"),
+        "{err}"
+    );
+    // A named pipe with no writer: opening it would wait forever.
+    let fifo = d.join("pipe.obj");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if made.is_ok_and(|s| s.success()) {
+        let t = MESH_3D.replace("cube.obj", "pipe.obj");
+        expect_bad(
+            &d,
+            "fifo.toml",
+            &t,
+            "check",
+            "bodies[0].file",
+            Some("file ="),
+        );
+        let o = cli(&["check", &fifo.to_string_lossy()]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    }
+    // Files over the size caps (sparse, so nothing is written): 256 MiB for meshes, 16 MiB for
+    // scenes.
+    let big = std::fs::File::create(d.join("cube.obj")).expect("create");
+    big.set_len((256 << 20) + 1).expect("set_len");
+    expect_bad(
+        &d,
+        "big_mesh.toml",
+        MESH_3D,
+        "check",
+        "bodies[0].file",
+        Some("file ="),
+    );
+    let err = stderr(&cli(&["check", &d.join("big_mesh.toml").to_string_lossy()]));
+    assert!(
+        err.contains("268435457 bytes, larger than the limit of 268435456 bytes"),
+        "{err}"
+    );
+    let scene = d.join("big.toml");
+    std::fs::File::create(&scene)
+        .and_then(|f| f.set_len((16 << 20) + 1))
+        .expect("sparse scene");
+    let o = cli(&["check", &scene.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("larger than the limit of 16777216 bytes (16 MiB)"),
+        "{}",
+        stderr(&o)
+    );
+    for path in ["/dev/urandom", "/dev/null"] {
+        let o = cli(&["check", path]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("not a regular file"), "{}", stderr(&o));
+        let o = cli(&["info", path]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    }
+}

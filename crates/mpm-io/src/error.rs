@@ -22,6 +22,14 @@ pub enum IoError {
         /// Underlying error.
         source: std::io::Error,
     },
+    /// The file does not match its checksums: it was damaged after it was written.
+    #[error("{path}: the file is damaged: {message}")]
+    Damaged {
+        /// File.
+        path: PathBuf,
+        /// Which dataset or part of the file does not match.
+        message: String,
+    },
     /// The file is readable but not in the expected layout.
     #[error("{path}: {message}")]
     Format {

@@ -13,6 +13,12 @@
 //!   the order [`read_file`] returns (the group also tracks link creation order, so h5py lists
 //!   them in that order too).
 //!
+//! - the HDF5 user block (the first 512 bytes or more, which HDF5 skips): FNV-1a 64 checksums
+//!   of every dataset's values and of the rest of the file, verified before the HDF5 library
+//!   parses the file, so a damaged file is refused with [`IoError::Damaged`] naming the dataset
+//!   instead of crashing or hanging the library (layout in the `checksum` module; [`reseal`]
+//!   recomputes them after an edit with another HDF5 tool).
+//!
 //! Strings are variable-length UTF-8. Object modification times are not recorded, so writing
 //! the same data twice gives byte-identical files.
 //!
@@ -21,14 +27,15 @@
 //! directory is fsynced, so a reader never sees a half-written file under its final name.
 
 mod atomic;
+mod checksum;
 mod error;
 mod snapshot;
 mod xdmf;
 
 pub use error::IoError;
 pub use snapshot::{
-    list_files, read_file, read_header, read_layout, write_file, Data, Field, FieldSpec, FileKind,
-    Header, Snapshot, CONNECTIVITY_DATASET, EXTRA_ATTRS_ATTR, FIELD_ORDER_ATTR, MESH_GROUP,
-    PARTICLES_GROUP, RESERVED_ROOT_ATTRS, UNIT_ATTR,
+    list_files, read_file, read_header, read_layout, reseal, write_file, Data, Field, FieldSpec,
+    FileKind, Header, Snapshot, CONNECTIVITY_DATASET, EXTRA_ATTRS_ATTR, FIELD_ORDER_ATTR,
+    MESH_GROUP, PARTICLES_GROUP, RESERVED_ROOT_ATTRS, UNIT_ATTR,
 };
 pub use xdmf::{write_xdmf, SeriesEntry};

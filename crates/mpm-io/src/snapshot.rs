@@ -1,6 +1,7 @@
 //! Snapshot and checkpoint files.
 
 use crate::atomic::replace_atomically;
+use crate::checksum::{self, Scope};
 use crate::IoError;
 use hdf5::plist::group_create::LinkCreationOrder;
 use hdf5::types::{FloatSize, IntSize, TypeDescriptor, VarLenAscii, VarLenUnicode};
@@ -184,7 +185,8 @@ impl FileKind {
 }
 
 /// Writes `fields` with `header` to `path` atomically (temporary file in the same directory,
-/// then rename).
+/// then rename), with a checksum of every dataset and of the rest of the file in the HDF5 user
+/// block (see [`read_file`]).
 ///
 /// The temporary file is `<dir>/.<name>.tmp-<pid>`; it is closed, fsynced, renamed over `path`
 /// (replacing an existing file) and the directory is fsynced. On failure the temporary file is
@@ -194,10 +196,31 @@ impl FileKind {
 /// [`IoError::Format`] before anything is created.
 pub fn write_file(path: &Path, header: &Header, fields: &[Field]) -> Result<(), IoError> {
     validate(path, header, fields)?;
-    replace_atomically(path, |tmp| write_hdf5(tmp, path, header, fields))
+    let block = checksum::block_size(
+        fields
+            .iter()
+            .map(|f| dataset_path(&f.name).len())
+            .chain([CONNECTIVITY_DATASET.len()]),
+    );
+    replace_atomically(path, |tmp| {
+        write_hdf5(tmp, path, header, fields, block)?;
+        checksum::seal(tmp, path)
+    })
+}
+
+/// Recomputes the checksums of a file written by [`write_file`] and then changed with another
+/// HDF5 tool (for example an attribute edited with h5py), so that [`read_file`] accepts it
+/// again. The file must keep the user block `write_file` gave it.
+pub fn reseal(path: &Path) -> Result<(), IoError> {
+    checksum::seal(path, path)
 }
 
 /// Reads a file written by [`write_file`].
+///
+/// Before the HDF5 library parses the file, every byte is checked against the checksums in its
+/// user block: a damaged file gives [`IoError::Damaged`] naming the dataset whose values, or the
+/// part of the file, that does not match (files written before mpm-io had checksums, HDF5 with
+/// no user block, are read unverified). A file that is neither gives [`IoError::Format`].
 ///
 /// Fields come back in the order they were written (the `field_order` attribute of
 /// `/particles`); extra attributes in the order of the root `extra_attrs` attribute. A missing
@@ -205,7 +228,7 @@ pub fn write_file(path: &Path, header: &Header, fields: &[Field]) -> Result<(), 
 /// it; a file that is not HDF5 gives [`IoError::Hdf5`]; a file that cannot be accessed gives
 /// [`IoError::Fs`].
 pub fn read_file(path: &Path) -> Result<Snapshot, IoError> {
-    let file = open(path)?;
+    let file = open(path, Scope::All)?;
     let header = read_header_from(&file, path)?;
     let group = particles_group(&file, path)?;
     let mut fields = Vec::new();
@@ -245,16 +268,18 @@ pub fn read_file(path: &Path) -> Result<Snapshot, IoError> {
     Ok(Snapshot { header, fields })
 }
 
-/// Reads only the root attributes of a file written by [`write_file`] (no particle data).
+/// Reads only the root attributes of a file written by [`write_file`] (no particle data; the
+/// checksums of everything but the particle values are verified).
 pub fn read_header(path: &Path) -> Result<Header, IoError> {
-    let file = open(path)?;
+    let file = open(path, Scope::Structure)?;
     read_header_from(&file, path)
 }
 
 /// Reads the root attributes and the name, unit, shape and number type of every field, in
-/// file order, without reading the values (e.g. to rebuild the XDMF sidecar of a run).
+/// file order, without reading the values (e.g. to rebuild the XDMF sidecar of a run; the
+/// checksums of everything but the particle values are verified).
 pub fn read_layout(path: &Path) -> Result<(Header, Vec<FieldSpec>), IoError> {
-    let file = open(path)?;
+    let file = open(path, Scope::Structure)?;
     let header = read_header_from(&file, path)?;
     let group = particles_group(&file, path)?;
     let mut specs = Vec::new();
@@ -363,7 +388,14 @@ fn validate(path: &Path, header: &Header, fields: &[Field]) -> Result<(), IoErro
     Ok(())
 }
 
-fn write_hdf5(tmp: &Path, path: &Path, header: &Header, fields: &[Field]) -> Result<(), IoError> {
+/// Writes the HDF5 file, leaving a user block of `block` bytes for the checksums.
+fn write_hdf5(
+    tmp: &Path,
+    path: &Path,
+    header: &Header,
+    fields: &[Field],
+    block: u64,
+) -> Result<(), IoError> {
     let tmp_name = tmp
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -371,7 +403,7 @@ fn write_hdf5(tmp: &Path, path: &Path, header: &Header, fields: &[Field]) -> Res
     let err = |what: &str| h5err(path, format!("writing {what} (temporary file {tmp_name})"));
 
     let file = hdf5::File::with_options()
-        .with_fcpl(|p| p.obj_track_times(false))
+        .with_fcpl(|p| p.obj_track_times(false).userblock(block))
         .create(tmp)
         .map_err(err("the file"))?;
     {
@@ -487,11 +519,9 @@ fn write_str_list_attr(loc: &hdf5::Location, name: &str, values: &[&str]) -> hdf
 // ---------------------------------------------------------------------------------------------
 // Reading
 
-fn open(path: &Path) -> Result<hdf5::File, IoError> {
-    std::fs::metadata(path).map_err(|source| IoError::Fs {
-        path: path.to_path_buf(),
-        source,
-    })?;
+/// Opens `path` with the HDF5 library once its checksums over `scope` match.
+fn open(path: &Path, scope: Scope) -> Result<hdf5::File, IoError> {
+    checksum::verify(path, scope)?;
     hdf5::File::open(path).map_err(h5err(path, "opening the file as HDF5"))
 }
 
@@ -588,6 +618,22 @@ fn field_spec(ds: &hdf5::Dataset, path: &Path, name: &str) -> Result<FieldSpec, 
             ))
         }
     };
+    // Checked before anything is allocated for the values: a damaged shape in a file without
+    // checksums must not ask for more memory than the file holds.
+    let size = if integer { 4 } else { 8 };
+    let needed = shape
+        .iter()
+        .try_fold(size, |acc: u64, &d| acc.checked_mul(d as u64));
+    if needed != Some(ds.storage_size()) {
+        return Err(format_err(
+            path,
+            format!(
+                "{what} stores {} bytes, its shape {shape:?} needs {}",
+                ds.storage_size(),
+                needed.map_or("more than 2^64".into(), |n| n.to_string())
+            ),
+        ));
+    }
     Ok(FieldSpec {
         name: name.to_owned(),
         unit,

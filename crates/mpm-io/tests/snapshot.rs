@@ -1,9 +1,10 @@
 //! Round trips, atomic writes and error paths of the snapshot/checkpoint files.
 
 use mpm_io::{
-    list_files, read_file, read_header, read_layout, write_file, Data, Field, FileKind, Header,
-    IoError,
+    list_files, read_file, read_header, read_layout, reseal, write_file, Data, Field, FileKind,
+    Header, IoError,
 };
+use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// A fresh, empty directory under Cargo's per-target temporary directory.
@@ -353,7 +354,7 @@ fn reading_a_file_that_is_not_hdf5_is_an_error() {
     std::fs::write(&empty, b"").unwrap();
     for p in [&text, &empty, &dir] {
         let err = read_file(p).unwrap_err();
-        assert!(matches!(err, IoError::Hdf5 { .. }), "{p:?}: {err:?}");
+        assert!(matches!(err, IoError::Format { .. }), "{p:?}: {err:?}");
         assert!(err.to_string().contains(&*p.to_string_lossy()), "{err}");
     }
     let missing = dir.join("missing.h5");
@@ -362,7 +363,8 @@ fn reading_a_file_that_is_not_hdf5_is_an_error() {
     assert!(read_header(&text).is_err());
 }
 
-/// Writes a valid file, damages it with `damage`, and returns the error of reading it.
+/// Writes a valid file, changes its layout with `damage`, recomputes its checksums, and returns
+/// the error of reading it.
 fn read_damaged(name: &str, damage: impl FnOnce(&hdf5::File)) -> IoError {
     let dir = scratch(name);
     let path = dir.join("s.h5");
@@ -372,6 +374,10 @@ fn read_damaged(name: &str, damage: impl FnOnce(&hdf5::File)) -> IoError {
         damage(&file);
         file.close().unwrap();
     }
+    // Without new checksums the change itself is what the reader reports.
+    let err = read_file(&path).unwrap_err();
+    assert!(matches!(err, IoError::Damaged { .. }), "{err:?}");
+    reseal(&path).unwrap();
     read_file(&path).unwrap_err()
 }
 
@@ -521,4 +527,150 @@ fn identical_inputs_give_identical_bytes() {
     std::thread::sleep(std::time::Duration::from_millis(1100));
     write_file(&b, &h, &fs).unwrap();
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+}
+
+/// Fields whose values occur nowhere else in the file: `x` (`n × dim`), `mass` (`n`) and
+/// `material` (`n`, u32), so that a test can find each dataset's values by their bytes.
+fn distinct_fields(n: usize, dim: usize) -> Vec<Field> {
+    let f64s = |name: &str, unit: &str, shape: Vec<usize>, base: f64| Field {
+        name: name.into(),
+        unit: unit.into(),
+        data: Data::F64 {
+            values: (0..shape.iter().product::<usize>())
+                .map(|i| base + 0.37 * i as f64)
+                .collect(),
+            shape,
+        },
+    };
+    vec![
+        f64s("x", "m", vec![n, dim], 0.125),
+        f64s("mass", "kg", vec![n], 1234.5),
+        Field {
+            name: "material".into(),
+            unit: "1".into(),
+            data: Data::U32 {
+                values: (0..n as u32).map(|i| 0x5eed_0000 + i).collect(),
+                shape: vec![n],
+            },
+        },
+    ]
+}
+
+/// The byte offset in `bytes` of the little-endian values of `data` (a dataset's payload).
+fn payload_offset(bytes: &[u8], data: &Data) -> usize {
+    let raw: Vec<u8> = match data {
+        Data::F64 { values, .. } => values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        Data::U32 { values, .. } => values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+    };
+    let at: Vec<usize> = (0..=bytes.len() - raw.len())
+        .filter(|&i| bytes[i..i + raw.len()] == raw[..])
+        .collect();
+    assert_eq!(at.len(), 1, "the values are stored once");
+    at[0]
+}
+
+#[test]
+fn every_flipped_byte_is_detected_before_hdf5_parses_the_file() {
+    let dir = scratch("flips");
+    let (good, bad) = (dir.join("good.h5"), dir.join("bad.h5"));
+    let h = Header {
+        scene: "[simulation]\ndim = 2\n".into(),
+        ..header(FileKind::Checkpoint, 2)
+    };
+    let fs = distinct_fields(3, 2);
+    write_file(&good, &h, &fs).unwrap();
+    let bytes = std::fs::read(&good).unwrap();
+    let x_at = payload_offset(&bytes, &fs[0].data);
+    let (mut damaged, mut named_x, mut not_ours) = (0, 0, 0);
+    std::fs::copy(&good, &bad).unwrap();
+    let mut file = std::fs::OpenOptions::new().write(true).open(&bad).unwrap();
+    // Flips bit `i % 8` of byte `i` in place (rewriting the file each time is slow on some
+    // file systems).
+    let mut put = |i: usize, byte: u8| {
+        file.seek(SeekFrom::Start(i as u64)).unwrap();
+        file.write_all(&[byte]).unwrap();
+    };
+    for i in 0..bytes.len() {
+        put(i, bytes[i] ^ (1 << (i % 8)));
+        let err = read_file(&bad).unwrap_err();
+        put(i, bytes[i]);
+        match err {
+            IoError::Damaged { message, .. } => {
+                damaged += 1;
+                let in_x = (x_at..x_at + 3 * 2 * 8).contains(&i);
+                assert_eq!(
+                    message.contains("/particles/x"),
+                    in_x,
+                    "byte {i}: {message}"
+                );
+                named_x += usize::from(in_x);
+            }
+            // The magic itself: not recognised as a file of mpm-io at all.
+            IoError::Format { message, .. } if i < 8 => {
+                assert!(message.contains("not an mpm-io"), "{message}");
+                not_ours += 1;
+            }
+            other => panic!("byte {i}: {other:?}"),
+        }
+    }
+    eprintln!(
+        "{} bytes: {damaged} damaged, {not_ours} not recognised",
+        bytes.len()
+    );
+    assert_eq!(
+        (damaged + not_ours, named_x, not_ours),
+        (bytes.len(), 48, 8)
+    );
+    // A truncated or extended file is damaged too.
+    for len in [bytes.len() - 1, bytes.len() + 1] {
+        let mut b = bytes.clone();
+        b.resize(len, 0);
+        std::fs::write(&bad, &b).unwrap();
+        let err = read_file(&bad).unwrap_err();
+        assert!(err.to_string().contains("truncated or extended"), "{err}");
+    }
+}
+
+#[test]
+fn damaged_values_still_give_the_header() {
+    let dir = scratch("damaged_values");
+    let path = dir.join("c.h5");
+    let h = header(FileKind::Checkpoint, 3);
+    let fs = distinct_fields(4, 3);
+    write_file(&path, &h, &fs).unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    let at = payload_offset(&bytes, &fs[1].data);
+    bytes[at + 5] ^= 0x10;
+    std::fs::write(&path, &bytes).unwrap();
+    let err = read_file(&path).unwrap_err();
+    assert!(matches!(err, IoError::Damaged { .. }), "{err:?}");
+    let text = err.to_string();
+    assert!(
+        text.contains("/particles/mass") && text.contains("c.h5"),
+        "{text}"
+    );
+    assert_eq!(read_header(&path).unwrap(), h);
+    assert_eq!(read_layout(&path).unwrap().0, h);
+}
+
+#[test]
+fn files_without_checksums_are_read_unverified() {
+    // A file as mpm-io wrote them before checksums: plain HDF5, no user block. Cutting off the
+    // user block leaves one (HDF5 addresses are relative to the superblock).
+    let dir = scratch("legacy");
+    let (path, legacy) = (dir.join("new.h5"), dir.join("old.h5"));
+    let h = header(FileKind::Snapshot, 2);
+    let fs = distinct_fields(6, 2);
+    write_file(&path, &h, &fs).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let block = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
+    assert!(block >= 512 && block.is_power_of_two());
+    std::fs::write(&legacy, &bytes[block..]).unwrap();
+    assert_bit_identical(&read_file(&legacy).unwrap(), &h, &fs);
+    // Without checksums a damaged shape is still caught before the values are allocated.
+    let mut b = bytes[block..].to_vec();
+    let at = payload_offset(&b, &fs[0].data);
+    b[at] ^= 1;
+    std::fs::write(&legacy, &b).unwrap();
+    assert_ne!(read_file(&legacy).unwrap().fields[0], fs[0]);
 }

@@ -9,8 +9,8 @@
 use crate::error::SceneError;
 use crate::mesh::{read_obj, TriMesh};
 use crate::scene::{
-    BodyDef, BoundaryGeometry, Duration, InstabilityAction, LoadedScene, NumberOrList, SamplingDef,
-    Scene, ShapeDef, Simulation, TimeStepDef,
+    count_text, BodyDef, BoundaryGeometry, Duration, InstabilityAction, LoadedScene, NumberOrList,
+    SamplingDef, Scene, ShapeDef, Simulation, TimeStepDef,
 };
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, DomainWalls};
 use mpm_core::sampling::{sample, Sampling, Shape};
@@ -403,8 +403,10 @@ fn sample_body<const D: usize>(
         return Err(scene.error(
             &key(k),
             format!(
-                "body \"{}\" would get about {estimate:.3e} particles (limit {MAX_PARTICLES:.0e})",
-                b.name
+                "body \"{}\" would get about {} particles (limit {})",
+                b.name,
+                count_text(estimate),
+                count_text(MAX_PARTICLES)
             ),
         ));
     }

@@ -9,7 +9,7 @@ use super::multigrid::{
     resolve_couplings, resolve_dissolution, resolve_mixing, resolve_porous, CouplingDef,
     DissolutionDef, MixingDef, PorousDef, RawCoupling, RawDissolution, RawMixing, RawPorous,
 };
-use super::{Checker, Common, Scene, SolverTables};
+use super::{count_text, Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::{Columns, Material};
 use serde::{Deserialize, Serialize};
@@ -142,8 +142,10 @@ fn check_phases(c: &mut Checker<'_>, bodies: &[BodyDef], phases: u32, grid: &Gri
             c.err(
                 "grid.dx",
                 format!(
-                    "{phases} phase grids would have {total:.3e} nodes in all (limit \
-                     {MAX_GRID_NODES:.0e}): increase dx or shrink the domain"
+                    "{phases} phase grids would have {} nodes in all (limit {}): increase dx \
+                     or shrink the domain",
+                    count_text(total),
+                    count_text(MAX_GRID_NODES)
                 ),
             );
         }

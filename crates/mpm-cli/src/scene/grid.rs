@@ -1,6 +1,6 @@
 //! `[grid]`: the domain, the node spacing and the interpolation kernel.
 
-use super::Checker;
+use super::{count_text, Checker};
 use mpm_core::Kernel;
 use serde::{Deserialize, Serialize};
 
@@ -51,8 +51,10 @@ pub(super) fn resolve_grid(c: &mut Checker<'_>, g: &RawGrid, d: usize) -> Grid {
                 c.err(
                     "grid.dx",
                     format!(
-                        "the grid would have {nodes:.3e} nodes (limit {MAX_GRID_NODES:.0e}): \
-                         increase dx or shrink the domain"
+                        "the grid would have {} nodes (limit {}): increase dx or shrink the \
+                         domain",
+                        count_text(nodes),
+                        count_text(MAX_GRID_NODES)
                     ),
                 );
             }

@@ -283,6 +283,11 @@ pub(super) fn material_index(
     found
 }
 
+/// Smallest accepted material density (kg/m³, in 2D kg/m²), far below any physical material
+/// (aerogels are about 1 kg/m³): a density of, say, 1e-300 makes particle masses underflow to 0
+/// and the stable time step vanish.
+const MIN_DENSITY: f64 = 1e-6;
+
 /// Whether the material is a fluid (`model = "tait"`).
 pub(super) fn is_fluid(m: &MaterialDef) -> bool {
     matches!(m.model, ModelDef::Tait(_))
@@ -373,7 +378,15 @@ fn resolve_material(c: &mut Checker<'_>, i: usize, m: &RawMaterial, d: usize) ->
         }
     };
     let density = match pick(m.density, |p| p.density) {
-        Some(rho) => c.positive(&k("density"), rho),
+        Some(rho) => c.num(
+            &k("density"),
+            rho,
+            |x| x >= MIN_DENSITY,
+            &format!(
+                "must be a finite number ≥ {MIN_DENSITY} kg/m^{d} (lighter materials give particle \
+                 masses and time steps the solvers cannot represent)"
+            ),
+        ),
         None => {
             c.err(&k("density"), "missing key: density (kg/m^D) is required");
             1.0

@@ -17,6 +17,7 @@
 //! [`crate::solvers`].
 
 use crate::error::{CliError, Diagnostic, SceneError};
+use crate::input::{read_text, MAX_SCENE_BYTES};
 use crate::solvers::{self, SolverScene};
 use crate::span::SpanIndex;
 use mpm_core::{Columns, Material};
@@ -254,10 +255,11 @@ impl LoadedScene {
     }
 }
 
-/// Reads and resolves the scene file at `path`. A missing or unreadable file and every problem
-/// in it are bad input (exit code 2).
+/// Reads and resolves the scene file at `path`. A missing or unreadable file, one that is not a
+/// regular file or is larger than [`MAX_SCENE_BYTES`], and every problem in it are bad input
+/// (exit code 2).
 pub fn load(path: &Path) -> Result<LoadedScene, CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
+    let text = read_text(path, MAX_SCENE_BYTES).map_err(|e| {
         CliError::BadInput(format!(
             "error: cannot read scene file {}: {e}",
             path.display()
@@ -538,6 +540,24 @@ fn reject_other_solvers_keys(c: &mut Checker<'_>, chosen: SolverKind) {
             }
         }
     }
+}
+
+/// A count computed as an `f64` (grid nodes, estimated particles) for messages: the exact
+/// integer (rounded up, with thousands separators) below 10¹⁵, else scientific notation, so that
+/// a count and its limit are never rounded to look alike.
+pub(crate) fn count_text(n: f64) -> String {
+    if !(n.is_finite() && (0.0..1e15).contains(&n)) {
+        return format!("{n:e}");
+    }
+    let digits = (n.ceil() as u64).to_string();
+    let mut out = String::new();
+    for (i, ch) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(ch);
+    }
+    out
 }
 
 /// The TOML spelling of a keyword enum value.

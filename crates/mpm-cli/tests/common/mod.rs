@@ -27,6 +27,25 @@ pub fn f64_field(s: &mpm_io::Snapshot, name: &str) -> Vec<f64> {
     values.clone()
 }
 
+/// SplitMix64: deterministic pseudo-random numbers.
+pub struct Rng(pub u64);
+
+impl Rng {
+    /// The next 64 random bits.
+    pub fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// A number in `0..n` (0 when `n` is 0).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
 /// The built `mpm-cli` binary.
 pub fn bin() -> &'static str {
     env!("CARGO_BIN_EXE_mpm-cli")
