@@ -11,15 +11,23 @@
 //!   particles after 40 steps: assembly (pattern included), preconditioner set-up and CG to
 //!   `‖b − A x‖ ≤ 10⁻⁶ ‖b‖`, timed together.
 //!
+//! - `pressure/coupled_floating_2d_{Jacobi,IncompleteCholesky}`: the coupled DIQ system
+//!   (Eq. 35: fluid, wall, solid and interface pressures) of an elastic block floating in a 2D
+//!   tank of 460² cells, over 100 000 unknowns: assembly, preconditioner set-up and CG, timed
+//!   together.
+//!
 //! Before the criterion groups, the binary prints to stderr one timed solve per preconditioner
 //! (identity, Jacobi, IC(0), multigrid) at n = 32, 64 and 128: set-up + solve seconds, iterations and
 //! the true final relative residual. Run with `cargo bench -p mpm-benches --bench pressure`.
 
 use criterion::{Criterion, SamplingMode};
 use mpm_core::boundary::{Boundaries, Contact, DomainWalls};
-use mpm_core::material::{FluidMaterial, Tait};
+use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
 use mpm_core::{Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Solver, Vector};
-use mpm_diq::{Constraints, DiqFluid, DiqParams, PressureMethod, PressureParams, PressureSystem};
+use mpm_diq::{
+    Constraints, DiqCoupled, DiqFluid, DiqParams, PressureMethod, PressureParams, PressureSystem,
+    SolidParams, UnknownKind,
+};
 use mpm_linalg::{
     conjugate_gradient, CgParams, CgWorkspace, Identity, IncompleteCholesky, Jacobi,
     LinearOperator, MultigridPreconditioner, PoissonGrid, PoissonOperator, Preconditioner,
@@ -263,9 +271,137 @@ fn bench_fluid(c: &mut Criterion) {
     group.finish();
 }
 
+/// A 2D tank of `n × n` cells half full of water with an elastic block (ρ = 500 kg/m², E = 1e5
+/// Pa, ν = 0.3) of a tenth of the width floating at its draft: the coupled solver's set-up.
+fn floating_block_2d(n: usize) -> DiqCoupled<2> {
+    let dx = 1.0 / n as f64;
+    let h = dx / 2.0;
+    let (x0, x1, bottom, top) = (0.45, 0.55, 0.45, 0.55);
+    let mut ps = Particles::new(Columns {
+        deformation_gradient: true,
+        ..Columns::default()
+    });
+    let lattice = |ps: &mut Particles<2>, lo: [f64; 2], hi: [f64; 2], solid: bool| {
+        let counts = [
+            ((hi[0] - lo[0]) / h).round() as usize,
+            ((hi[1] - lo[1]) / h).round() as usize,
+        ];
+        for j in 0..counts[1] {
+            for i in 0..counts[0] {
+                let x =
+                    Vector::<2>::new(lo[0] + (i as f64 + 0.5) * h, lo[1] + (j as f64 + 0.5) * h);
+                let in_block = x[0] > x0 && x[0] < x1 && x[1] > bottom;
+                if solid || !in_block {
+                    let rho = if solid { 500.0 } else { 1000.0 };
+                    ps.push(ParticleInit {
+                        x,
+                        v: Vector::<2>::zeros(),
+                        mass: rho * h * h,
+                        volume0: h * h,
+                        material: u32::from(solid),
+                        affine: Matrix::<2>::zeros(),
+                    });
+                }
+            }
+        }
+    };
+    lattice(&mut ps, [0.0, 0.0], [1.0, 0.5], false);
+    lattice(&mut ps, [x0, bottom], [x1, top], true);
+    let materials = vec![
+        Material::Fluid(FluidMaterial {
+            density: 1000.0,
+            eos: Tait {
+                bulk_modulus: 2e6,
+                gamma: 7.0,
+            },
+            viscosity: 0.0,
+        }),
+        Material::Solid(SolidMaterial {
+            density: 500.0,
+            elastic: ElasticModel::NeoHookean(Lame::from_young_poisson(1e5, 0.3)),
+            plasticity: Default::default(),
+        }),
+    ];
+    let walls = Boundaries {
+        walls: Some(DomainWalls {
+            contact: Contact::default(),
+            thickness: 1,
+        }),
+        colliders: Vec::new(),
+    };
+    DiqCoupled::new(
+        GridSpec::new(Vector::<2>::from_element(-dx), dx, [n + 3, n + 3]),
+        DiqParams::default(),
+        SolidParams::default(),
+        materials,
+        walls,
+        ps,
+    )
+    .expect("valid set-up")
+}
+
+/// Assembles and solves the coupled system with `method`; returns iterations and residual.
+fn solve_coupled(
+    problem: &(Constraints<2>, Vec<f64>, Vec<f64>),
+    dt: f64,
+    method: PressureMethod,
+) -> (u32, f64) {
+    let (rows, inv_mass, rhs) = problem;
+    let params = PressureParams {
+        method,
+        rel_tol: RTOL,
+        ..PressureParams::default()
+    };
+    let mut system = PressureSystem::<2>::new();
+    system
+        .assemble(rows, inv_mass, dt, &params, &|_| false)
+        .expect("assembled");
+    let mut lambda = Vec::new();
+    let info = system.solve(rhs, &mut lambda, &params).expect("solved");
+    (info.iterations, info.relative_residual)
+}
+
+fn bench_coupled(c: &mut Criterion) {
+    let mut coupled = floating_block_2d(460);
+    let dt = 1e-3;
+    let problem = coupled.coupled_problem(dt).expect("elastic solve");
+    let count = |k: UnknownKind| problem.0.kinds.iter().filter(|&&x| x == k).count();
+    eprintln!(
+        "floating block 2D: {} particles, {} unknowns ({} fluid, {} wall, {} solid, {} interface)",
+        coupled.particles().len(),
+        problem.0.len(),
+        count(UnknownKind::Fluid),
+        count(UnknownKind::Wall),
+        count(UnknownKind::SolidPressure),
+        count(UnknownKind::Interface),
+    );
+    eprintln!("| method | assemble + set-up + solve (s) | iterations | rel. residual |");
+    eprintln!("|---|---|---|---|");
+    let methods = [PressureMethod::Jacobi, PressureMethod::IncompleteCholesky];
+    for method in methods {
+        let start = Instant::now();
+        let (iterations, relres) = solve_coupled(&problem, dt, method);
+        let seconds = start.elapsed().as_secs_f64();
+        eprintln!("| {method:?} | {seconds:.3} | {iterations} | {relres:.2e} |");
+    }
+    let mut group = c.benchmark_group("pressure");
+    group
+        .sample_size(10)
+        .sampling_mode(SamplingMode::Flat)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(5));
+    for method in methods {
+        group.bench_function(format!("coupled_floating_2d_{method:?}"), |bench| {
+            bench.iter(|| black_box(solve_coupled(&problem, dt, method)));
+        });
+    }
+    group.finish();
+}
+
 fn main() {
     let mut criterion = Criterion::default().configure_from_args();
     bench_pressure(&mut criterion);
     bench_fluid(&mut criterion);
+    bench_coupled(&mut criterion);
     criterion.final_summary();
 }
