@@ -1,5 +1,5 @@
 //! `mpm-cli`: run MPM scenes. Exit codes: 0 ok, 2 bad input, 3 numerical instability,
-//! 1 anything else.
+//! 130 / 143 a run stopped by SIGINT / SIGTERM (after writing a checkpoint), 1 anything else.
 
 use clap::{Parser, Subcommand};
 use mpm_cli::render::RenderOptions;
@@ -8,11 +8,19 @@ use mpm_cli::CliError;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The exit codes, shown by `--help`.
+const EXIT_CODES: &str =
+    "Exit codes: 0 ok, 1 other error (e.g. a file could not be written), 2 bad \
+input, 3 numerical instability, 130 / 143 a run stopped by SIGINT (Ctrl-C) / SIGTERM: it finished \
+its step and wrote a checkpoint, a snapshot and summary.json (status \"interrupted\"); continue \
+it with --resume. A second signal ends it at once.";
+
 #[derive(Parser)]
 #[command(
     name = "mpm-cli",
     version,
-    about = "Material Point Method scenes: run, check, inspect, render"
+    about = "Material Point Method scenes: run, check, inspect, render",
+    after_help = EXIT_CODES
 )]
 struct Cli {
     #[command(subcommand)]
@@ -22,6 +30,11 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Run a scene: HDF5 snapshots, run.xmf, checkpoints and summary.json in the output directory.
+    ///
+    /// SIGINT (Ctrl-C) or SIGTERM stops the run after the current step with a checkpoint
+    /// ckpt_NNNNNN.h5, a snapshot and summary.json (status "interrupted"), exit code 130 or 143;
+    /// --resume continues it bitwise. A second signal ends the process at once.
+    #[command(after_help = EXIT_CODES)]
     Run {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -90,6 +103,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             resume,
             threads,
             quiet,
+            stop: Some(mpm_cli::run::stop_on_signals()?),
         }),
         Command::Check { scene } => {
             print!("{}", mpm_cli::check::check(&scene)?);
