@@ -65,7 +65,8 @@ enum Command {
         #[arg(long)]
         scene: bool,
     },
-    /// Render snapshots to PNG images in DIR/render/.
+    /// Render snapshots to PNG images in DIR/render/ (frame_NNNNNN.png; with --color-by or
+    /// --view, frame_NNNNNN_FIELD_VIEW.png).
     Render {
         /// Output directory of a run.
         dir: PathBuf,
@@ -86,6 +87,15 @@ enum Command {
         /// light grey beneath them.
         #[arg(long, value_name = "MATERIAL")]
         only: Vec<String>,
+        /// Colour range of a continuous field, in its unit (default: its range over the
+        /// rendered frames); values outside get the end colours.
+        #[arg(long, num_args = 2, value_names = ["MIN", "MAX"], allow_negative_numbers = true)]
+        range: Option<Vec<f64>>,
+        /// 3D view: xy (x right, y up, from +z; the default), any other pair of axes (right,
+        /// then up: yz, zx, yx, zy, xz), or iso (isometric from (1, 1, 1), y up). Pictures are
+        /// named frame_NNNNNN[_FIELD][_VIEW].png after the --color-by and --view given.
+        #[arg(long)]
+        view: Option<String>,
     },
 }
 
@@ -120,6 +130,8 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             color_by,
             width,
             only,
+            range,
+            view,
         } => {
             let files = mpm_cli::render::render(&RenderOptions {
                 dir,
@@ -128,6 +140,8 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                 color_by,
                 width,
                 only,
+                range: range.map(|r| (r[0], r[1])),
+                view,
             })?;
             for f in files {
                 println!("{}", f.display());
