@@ -7,7 +7,9 @@ use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene};
 use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, to_field, UNITS};
 use mpm_core::solver::StageTime;
 use mpm_core::{Diagnostics, Dim, DimOps, Solver, StepError, StepInfo};
-use mpm_io::{read_file, write_file, write_xdmf, FileKind, Header, SeriesEntry};
+use mpm_io::{
+    read_file, read_layout, write_file, write_file_with, write_xdmf, FileKind, Header, SeriesEntry,
+};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
@@ -478,16 +480,17 @@ where
                 let _ = std::fs::remove_file(&p);
                 continue;
             }
-            match read_file(&p) {
-                Ok(s) => {
-                    if s.header.step == ck.header.step {
-                        self.last_snapshot_step = Some(s.header.step);
+            // The layout (not the values) as stored, so that f32 fields stay declared as such.
+            match read_layout(&p) {
+                Ok((h, fields)) => {
+                    if h.step == ck.header.step {
+                        self.last_snapshot_step = Some(h.step);
                     }
                     self.series.push(SeriesEntry {
-                        time: s.header.time,
+                        time: h.time,
                         file: snapshot_name(n),
                         dim: D as u32,
-                        fields: s.fields.iter().map(|f| f.spec()).collect(),
+                        fields,
                     })
                 }
                 Err(e) => self.warn(format!("earlier snapshot not kept in run.xmf: {e}")),
@@ -541,12 +544,13 @@ where
             FileKind::Snapshot,
             vec![("frame".to_string(), self.frame as f64)],
         );
-        write_file(&self.out.join(&name), &header, &fields)?;
+        let storage = self.scene.scene.output.storage();
+        write_file_with(&self.out.join(&name), &header, &fields, storage)?;
         self.series.push(SeriesEntry {
             time: self.solver.time(),
             file: name,
             dim: D as u32,
-            fields: fields.iter().map(|f| f.spec()).collect(),
+            fields: fields.iter().map(|f| storage.spec(f)).collect(),
         });
         write_xdmf(&self.out.join("run.xmf"), &self.series)?;
         for (stats, m) in self.monitors.iter_mut().zip(self.solver.monitors()) {
