@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 use mpm_cli::render::RenderOptions;
 use mpm_cli::run::RunOptions;
+use mpm_cli::surface::SurfaceOptions;
 use mpm_cli::CliError;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -19,7 +20,7 @@ it with --resume. A second signal ends it at once.";
 #[command(
     name = "mpm-cli",
     version,
-    about = "Material Point Method scenes: run, check, inspect, render",
+    about = "Material Point Method scenes: run, check, inspect, render, reconstruct surfaces",
     after_help = EXIT_CODES
 )]
 struct Cli {
@@ -97,6 +98,43 @@ enum Command {
         #[arg(long)]
         view: Option<String>,
     },
+    /// Reconstruct the fluid's surface of every 3D snapshot (or one, with --frame) as a
+    /// triangle mesh with splashsurf, written to DIR/surface/surface_NNNNNN.ply (binary PLY,
+    /// opened by Blender, ParaView, MeshLab). Prints each file with its vertex and triangle
+    /// counts and enclosed volume.
+    Surface {
+        /// Output directory of a run.
+        dir: PathBuf,
+        /// Frame number to reconstruct (default: every frame).
+        #[arg(long)]
+        frame: Option<u64>,
+        /// Material whose particles form the surface (repeatable; default: every fluid
+        /// material of the scene).
+        #[arg(long = "material", value_name = "MATERIAL")]
+        materials: Vec<String>,
+        /// Particle radius in m (default: half the median particle spacing, volume0^(1/3) / 2).
+        #[arg(long, value_name = "M", allow_negative_numbers = true)]
+        radius: Option<f64>,
+        /// Kernel smoothing length in particle radii (the kernel reaches twice as far).
+        #[arg(
+            long,
+            default_value_t = 2.0,
+            value_name = "RADII",
+            allow_negative_numbers = true
+        )]
+        smoothing_length: f64,
+        /// Edge length of the marching-cubes cells in particle radii.
+        #[arg(
+            long,
+            default_value_t = 0.5,
+            value_name = "RADII",
+            allow_negative_numbers = true
+        )]
+        cube_size: f64,
+        /// Iso-surface level as a fraction of the rest density.
+        #[arg(long, default_value_t = 0.6, allow_negative_numbers = true)]
+        iso: f64,
+    },
 }
 
 fn dispatch(cli: Cli) -> Result<(), CliError> {
@@ -145,6 +183,36 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             })?;
             for f in files {
                 println!("{}", f.display());
+            }
+            Ok(())
+        }
+        Command::Surface {
+            dir,
+            frame,
+            materials,
+            radius,
+            smoothing_length,
+            cube_size,
+            iso,
+        } => {
+            let files = mpm_cli::surface::surface(&SurfaceOptions {
+                dir,
+                frame,
+                materials,
+                radius,
+                smoothing_length,
+                cube_size,
+                iso,
+            })?;
+            for f in files {
+                println!(
+                    "{}: {} particles, {} vertices, {} triangles, volume {:.6e} m^3",
+                    f.path.display(),
+                    f.particles,
+                    f.vertices,
+                    f.triangles,
+                    f.volume
+                );
             }
             Ok(())
         }

@@ -360,6 +360,46 @@ fn nice_step(raw: f64) -> f64 {
         .unwrap_or(10.0 * mag)
 }
 
+/// The snapshots `snap_NNNNNN.h5` of `dir` to process: frame `frame` if given, every one with
+/// `all`, else the last. The error says what is missing (no snapshots, no such frame).
+pub fn select_snapshots(
+    dir: &Path,
+    frame: Option<u64>,
+    all: bool,
+) -> Result<Vec<(u64, PathBuf)>, String> {
+    let snaps = numbered_files(dir, "snap_");
+    if snaps.is_empty() {
+        return Err(format!(
+            "no snapshots (snap_NNNNNN.h5) in {}",
+            dir.display()
+        ));
+    }
+    if all {
+        return Ok(snaps);
+    }
+    let Some(f) = frame else {
+        return Ok(snaps.last().cloned().into_iter().collect());
+    };
+    match snaps.iter().find(|(n, _)| *n == f) {
+        Some(s) => Ok(vec![s.clone()]),
+        None => Err(format!(
+            "no frame {f} ({} does not exist; frames {}..={})",
+            snapshot_name(f),
+            snaps[0].0,
+            snaps[snaps.len() - 1].0
+        )),
+    }
+}
+
+/// The median particle spacing of a `dim`-dimensional snapshot (m): `volume0^(1/dim)` of the
+/// median initial particle volume; `None` without a positive `volume0`.
+pub fn particle_spacing(s: &Snapshot, dim: usize) -> Option<f64> {
+    let (v, _) = field_f64(s, "volume0")?;
+    let mut v: Vec<f64> = v.iter().copied().filter(|x| *x > 0.0).collect();
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).map(|m| m.powf(1.0 / dim as f64))
+}
+
 /// Renders snapshots of a run directory; returns the PNG files written.
 pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
     let bad = |m: String| CliError::BadInput(format!("error: render: {m}"));
@@ -379,30 +419,7 @@ pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
             ))
         })?,
     };
-    let snaps = numbered_files(&opts.dir, "snap_");
-    if snaps.is_empty() {
-        return Err(bad(format!(
-            "no snapshots (snap_NNNNNN.h5) in {}",
-            opts.dir.display()
-        )));
-    }
-    let chosen: Vec<(u64, PathBuf)> = if opts.all {
-        snaps
-    } else if let Some(f) = opts.frame {
-        match snaps.iter().find(|(n, _)| *n == f) {
-            Some(s) => vec![s.clone()],
-            None => {
-                return Err(bad(format!(
-                    "no frame {f} ({} does not exist; frames {}..={})",
-                    snapshot_name(f),
-                    snaps[0].0,
-                    snaps[snaps.len() - 1].0
-                )))
-            }
-        }
-    } else {
-        snaps.last().cloned().into_iter().collect()
-    };
+    let chosen = select_snapshots(&opts.dir, opts.frame, opts.all).map_err(bad)?;
     let mut frames = Vec::new();
     for (number, path) in &chosen {
         let snap = read_file(path).map_err(|e| bad(e.to_string()))?;
@@ -786,14 +803,8 @@ fn draw_frame(
             }
         }
     }
-    // Dot radius from the particle spacing (volume0^(1/D)).
-    let spacing = field_f64(&f.snap, "volume0")
-        .and_then(|(v, _)| {
-            let mut s: Vec<f64> = v.iter().copied().filter(|x| *x > 0.0).collect();
-            s.sort_by(f64::total_cmp);
-            s.get(s.len() / 2).map(|m| m.powf(1.0 / dim as f64))
-        })
-        .unwrap_or((view.phi[0] - view.plo[0]) / 200.0);
+    // Dot radius from the particle spacing.
+    let spacing = particle_spacing(&f.snap, dim).unwrap_or((view.phi[0] - view.plo[0]) / 200.0);
     let r = (0.75 * spacing * view.scale).clamp(1.0, 6.0);
     let projected: Vec<[f64; 3]> = f.pos.iter().map(|p| view.projection.project(p)).collect();
     // Painter's order: particles not coloured (`--only`) first, then far before near.
