@@ -211,7 +211,7 @@ fn reconstruct(
     let cells: f64 = (0..3)
         .map(|a| (hi[a] - lo[a] + 2.0 * margin) / cube)
         .product();
-    if !(cells <= MAX_CELLS) {
+    if cells.is_nan() || cells > MAX_CELLS {
         return Err(format!(
             "the marching-cubes grid would have {cells:.2e} cells (at most {MAX_CELLS:.0e}); \
              give a larger --cube-size or --radius"
