@@ -97,15 +97,25 @@ pub enum CliError {
     Instability(String),
     /// Anything else (exit code 1).
     Other(String),
+    /// The run was stopped by a termination signal after writing a checkpoint
+    /// (exit code 128 + the signal number: 130 for SIGINT, 143 for SIGTERM).
+    Interrupted {
+        /// The signal number (2 for SIGINT, 15 for SIGTERM).
+        signal: i32,
+        /// What happened and how to resume.
+        message: String,
+    },
 }
 
 impl CliError {
-    /// The process exit code: 2 bad input, 3 numerical instability, 1 anything else.
+    /// The process exit code: 2 bad input, 3 numerical instability, 128 + signal number when
+    /// interrupted (130 SIGINT, 143 SIGTERM), 1 anything else.
     pub fn exit_code(&self) -> i32 {
         match self {
             CliError::BadInput(_) => 2,
             CliError::Instability(_) => 3,
             CliError::Other(_) => 1,
+            CliError::Interrupted { signal, .. } => 128 + signal,
         }
     }
 }
@@ -113,7 +123,10 @@ impl CliError {
 impl fmt::Display for CliError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            CliError::BadInput(m) | CliError::Instability(m) | CliError::Other(m) => f.write_str(m),
+            CliError::BadInput(m)
+            | CliError::Instability(m)
+            | CliError::Other(m)
+            | CliError::Interrupted { message: m, .. } => f.write_str(m),
         }
     }
 }

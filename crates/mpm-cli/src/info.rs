@@ -3,7 +3,7 @@
 
 use crate::error::CliError;
 use crate::run::numbered_files;
-use mpm_io::{read_file, read_header, Data, FileKind};
+use mpm_io::{read_file, read_header, read_layout, Data, FileKind};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -14,6 +14,8 @@ pub fn info(path: &Path, scene: bool) -> Result<String, CliError> {
         return run_dir(path);
     }
     let s = read_file(path).map_err(|e| CliError::BadInput(format!("error: {e}")))?;
+    // The stored number types (read_file widens f32 to f64).
+    let (_, layout) = read_layout(path).map_err(|e| CliError::BadInput(format!("error: {e}")))?;
     let h = &s.header;
     let mut o = String::new();
     let kind = match h.kind {
@@ -48,8 +50,7 @@ pub fn info(path: &Path, scene: bool) -> Result<String, CliError> {
         "\n{:<12} {:<12} {:<5} {:<10} {:>14} {:>14}",
         "field", "shape", "type", "unit", "min", "max"
     );
-    for f in &s.fields {
-        let spec = f.spec();
+    for (f, spec) in s.fields.iter().zip(&layout) {
         let (lo, hi) = match &f.data {
             Data::F64 { values, .. } => values
                 .iter()
@@ -68,7 +69,11 @@ pub fn info(path: &Path, scene: bool) -> Result<String, CliError> {
             "{:<12} {:<12} {:<5} {:<10} {:>14.6e} {:>14.6e}",
             spec.name,
             shape,
-            if spec.integer { "u32" } else { "f64" },
+            match (spec.integer, spec.single) {
+                (true, _) => "u32",
+                (false, true) => "f32",
+                (false, false) => "f64",
+            },
             spec.unit,
             lo,
             hi

@@ -1,5 +1,5 @@
 //! The `mpm-cli` command-line tool as a library: scene format, building a solver from a scene,
-//! the run loop with snapshots and checkpoints, `check`, `info` and `render`. The binary
+//! the run loop with snapshots and checkpoints, `check`, `info`, `render` and `surface`. The binary
 //! (`src/main.rs`) only parses arguments and maps errors to exit codes. No physics lives here.
 
 pub mod build;
@@ -15,5 +15,6 @@ pub mod scene;
 pub mod solvers;
 pub mod span;
 pub mod state;
+pub mod surface;
 
 pub use error::{CliError, SceneError};

@@ -1,18 +1,27 @@
 //! `mpm-cli`: run MPM scenes. Exit codes: 0 ok, 2 bad input, 3 numerical instability,
-//! 1 anything else.
+//! 130 / 143 a run stopped by SIGINT / SIGTERM (after writing a checkpoint), 1 anything else.
 
 use clap::{Parser, Subcommand};
 use mpm_cli::render::RenderOptions;
 use mpm_cli::run::RunOptions;
+use mpm_cli::surface::SurfaceOptions;
 use mpm_cli::CliError;
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+/// The exit codes, shown by `--help`.
+const EXIT_CODES: &str =
+    "Exit codes: 0 ok, 1 other error (e.g. a file could not be written), 2 bad \
+input, 3 numerical instability, 130 / 143 a run stopped by SIGINT (Ctrl-C) / SIGTERM: it finished \
+its step and wrote a checkpoint, a snapshot and summary.json (status \"interrupted\"); continue \
+it with --resume. A second signal ends it at once.";
 
 #[derive(Parser)]
 #[command(
     name = "mpm-cli",
     version,
-    about = "Material Point Method scenes: run, check, inspect, render"
+    about = "Material Point Method scenes: run, check, inspect, render, reconstruct surfaces",
+    after_help = EXIT_CODES
 )]
 struct Cli {
     #[command(subcommand)]
@@ -22,6 +31,11 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Run a scene: HDF5 snapshots, run.xmf, checkpoints and summary.json in the output directory.
+    ///
+    /// SIGINT (Ctrl-C) or SIGTERM stops the run after the current step with a checkpoint
+    /// ckpt_NNNNNN.h5, a snapshot and summary.json (status "interrupted"), exit code 130 or 143;
+    /// --resume continues it bitwise. A second signal ends the process at once.
+    #[command(after_help = EXIT_CODES)]
     Run {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -52,7 +66,8 @@ enum Command {
         #[arg(long)]
         scene: bool,
     },
-    /// Render snapshots to PNG images in DIR/render/.
+    /// Render snapshots to PNG images in DIR/render/ (frame_NNNNNN.png; with --color-by or
+    /// --view, frame_NNNNNN_FIELD_VIEW.png).
     Render {
         /// Output directory of a run.
         dir: PathBuf,
@@ -73,6 +88,52 @@ enum Command {
         /// light grey beneath them.
         #[arg(long, value_name = "MATERIAL")]
         only: Vec<String>,
+        /// Colour range of a continuous field, in its unit (default: its range over the
+        /// rendered frames); values outside get the end colours.
+        #[arg(long, num_args = 2, value_names = ["MIN", "MAX"], allow_negative_numbers = true)]
+        range: Option<Vec<f64>>,
+        /// 3D view: xy (x right, y up, from +z; the default), any other pair of axes (right,
+        /// then up: yz, zx, yx, zy, xz), or iso (isometric from (1, 1, 1), y up). Pictures are
+        /// named frame_NNNNNN[_FIELD][_VIEW].png after the --color-by and --view given.
+        #[arg(long)]
+        view: Option<String>,
+    },
+    /// Reconstruct the fluid's surface of every 3D snapshot (or one, with --frame) as a
+    /// triangle mesh with splashsurf, written to DIR/surface/surface_NNNNNN.ply (binary PLY,
+    /// opened by Blender, ParaView, MeshLab). Prints each file with its vertex and triangle
+    /// counts and enclosed volume.
+    Surface {
+        /// Output directory of a run.
+        dir: PathBuf,
+        /// Frame number to reconstruct (default: every frame).
+        #[arg(long)]
+        frame: Option<u64>,
+        /// Material whose particles form the surface (repeatable; default: every fluid
+        /// material of the scene).
+        #[arg(long = "material", value_name = "MATERIAL")]
+        materials: Vec<String>,
+        /// Particle radius in m (default: half the median particle spacing, volume0^(1/3) / 2).
+        #[arg(long, value_name = "M", allow_negative_numbers = true)]
+        radius: Option<f64>,
+        /// Kernel smoothing length in particle radii (the kernel reaches twice as far).
+        #[arg(
+            long,
+            default_value_t = 2.0,
+            value_name = "RADII",
+            allow_negative_numbers = true
+        )]
+        smoothing_length: f64,
+        /// Edge length of the marching-cubes cells in particle radii.
+        #[arg(
+            long,
+            default_value_t = 0.5,
+            value_name = "RADII",
+            allow_negative_numbers = true
+        )]
+        cube_size: f64,
+        /// Iso-surface level as a fraction of the rest density.
+        #[arg(long, default_value_t = 0.6, allow_negative_numbers = true)]
+        iso: f64,
     },
 }
 
@@ -90,6 +151,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             resume,
             threads,
             quiet,
+            stop: Some(mpm_cli::run::stop_on_signals()?),
         }),
         Command::Check { scene } => {
             print!("{}", mpm_cli::check::check(&scene)?);
@@ -106,6 +168,8 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             color_by,
             width,
             only,
+            range,
+            view,
         } => {
             let files = mpm_cli::render::render(&RenderOptions {
                 dir,
@@ -114,9 +178,41 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                 color_by,
                 width,
                 only,
+                range: range.map(|r| (r[0], r[1])),
+                view,
             })?;
             for f in files {
                 println!("{}", f.display());
+            }
+            Ok(())
+        }
+        Command::Surface {
+            dir,
+            frame,
+            materials,
+            radius,
+            smoothing_length,
+            cube_size,
+            iso,
+        } => {
+            let files = mpm_cli::surface::surface(&SurfaceOptions {
+                dir,
+                frame,
+                materials,
+                radius,
+                smoothing_length,
+                cube_size,
+                iso,
+            })?;
+            for f in files {
+                println!(
+                    "{}: {} particles, {} vertices, {} triangles, volume {:.6e} m^3",
+                    f.path.display(),
+                    f.particles,
+                    f.vertices,
+                    f.triangles,
+                    f.volume
+                );
             }
             Ok(())
         }

@@ -7,11 +7,15 @@ use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene};
 use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, to_field, UNITS};
 use mpm_core::solver::StageTime;
 use mpm_core::{Diagnostics, Dim, DimOps, Solver, StepError, StepInfo};
-use mpm_io::{read_file, write_file, write_xdmf, FileKind, Header, SeriesEntry};
+use mpm_io::{
+    read_file, read_layout, write_file, write_file_with, write_xdmf, FileKind, Header, SeriesEntry,
+};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Options of `mpm-cli run`.
@@ -27,6 +31,43 @@ pub struct RunOptions {
     pub threads: Option<usize>,
     /// No progress output.
     pub quiet: bool,
+    /// Set to a signal number (nonzero) to stop the run after the current step with a
+    /// checkpoint and exit code 128 + that number; [`stop_on_signals`] sets it on SIGINT and
+    /// SIGTERM. `None`: the run cannot be stopped this way.
+    pub stop: Option<Arc<AtomicUsize>>,
+}
+
+/// Installs handlers so that the first SIGINT or SIGTERM stores its signal number in the
+/// returned flag (the run loop then finishes its step, writes a checkpoint, a snapshot and
+/// `summary.json` with status "interrupted", and exits with 128 + the number), and a second
+/// one ends the process at once with the signal's default action.
+pub fn stop_on_signals() -> Result<Arc<AtomicUsize>, CliError> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    use signal_hook::flag;
+    let which = Arc::new(AtomicUsize::new(0));
+    let armed = Arc::new(AtomicBool::new(false));
+    for sig in [SIGINT, SIGTERM] {
+        // The conditional default goes first: it fires only once `armed` is set, i.e. on the
+        // second signal.
+        flag::register_conditional_default(sig, Arc::clone(&armed))
+            .and_then(|_| flag::register(sig, Arc::clone(&armed)))
+            .and_then(|_| flag::register_usize(sig, Arc::clone(&which), sig as usize))
+            .map_err(|e| {
+                CliError::Other(format!(
+                    "error: cannot install a handler for signal {sig}: {e}"
+                ))
+            })?;
+    }
+    Ok(which)
+}
+
+/// The conventional name of the termination signals `mpm-cli run` handles.
+fn signal_name(signal: i32) -> String {
+    match signal {
+        signal_hook::consts::SIGINT => "SIGINT".into(),
+        signal_hook::consts::SIGTERM => "SIGTERM".into(),
+        s => format!("signal {s}"),
+    }
 }
 
 /// Code version written into every file.
@@ -206,6 +247,8 @@ struct Runner<'a, const D: usize> {
     /// The solver's monitors (e.g. the fluid volume): value at t = 0 and extremes over the
     /// snapshots of this run.
     monitors: Vec<MonitorStats>,
+    /// Nonzero once a signal asked the run to stop (see [`RunOptions::stop`]).
+    stop: Option<Arc<AtomicUsize>>,
 }
 
 /// One monitor of the solver over a run.
@@ -310,6 +353,7 @@ where
             io_seconds: 0.0,
             checkpoints_written: Vec::new(),
             monitors: Vec::new(),
+            stop: opts.stop.clone(),
         };
         r.monitors = r
             .solver
@@ -436,16 +480,17 @@ where
                 let _ = std::fs::remove_file(&p);
                 continue;
             }
-            match read_file(&p) {
-                Ok(s) => {
-                    if s.header.step == ck.header.step {
-                        self.last_snapshot_step = Some(s.header.step);
+            // The layout (not the values) as stored, so that f32 fields stay declared as such.
+            match read_layout(&p) {
+                Ok((h, fields)) => {
+                    if h.step == ck.header.step {
+                        self.last_snapshot_step = Some(h.step);
                     }
                     self.series.push(SeriesEntry {
-                        time: s.header.time,
+                        time: h.time,
                         file: snapshot_name(n),
                         dim: D as u32,
-                        fields: s.fields.iter().map(|f| f.spec()).collect(),
+                        fields,
                     })
                 }
                 Err(e) => self.warn(format!("earlier snapshot not kept in run.xmf: {e}")),
@@ -499,12 +544,13 @@ where
             FileKind::Snapshot,
             vec![("frame".to_string(), self.frame as f64)],
         );
-        write_file(&self.out.join(&name), &header, &fields)?;
+        let storage = self.scene.scene.output.storage();
+        write_file_with(&self.out.join(&name), &header, &fields, storage)?;
         self.series.push(SeriesEntry {
             time: self.solver.time(),
             file: name,
             dim: D as u32,
-            fields: fields.iter().map(|f| f.spec()).collect(),
+            fields: fields.iter().map(|f| storage.spec(f)).collect(),
         });
         write_xdmf(&self.out.join("run.xmf"), &self.series)?;
         for (stats, m) in self.monitors.iter_mut().zip(self.solver.monitors()) {
@@ -614,7 +660,7 @@ where
         }
         let tty = std::io::stderr().is_terminal();
         let mut progress = Progress::new(self.quiet, tty);
-        while failure.is_none() && !self.finished() {
+        while failure.is_none() && !self.finished() && self.stop_signal().is_none() {
             match self.solver.step() {
                 Ok(info) => self.record(&info),
                 Err(e) => {
@@ -648,7 +694,11 @@ where
             );
         }
         progress.finish();
-        if failure.is_none() {
+        // A signal that arrives during the last step does not interrupt a finished run.
+        let interrupted = self.stop_signal().filter(|_| !self.finished());
+        if let (None, Some(_)) = (&failure, interrupted) {
+            failure = self.write_interrupt_outputs().err();
+        } else if failure.is_none() {
             if self.last_snapshot_step != Some(self.solver.steps()) {
                 if let Err(e) = self.write_snapshot() {
                     failure = Some(e);
@@ -667,7 +717,8 @@ where
             let w = format!("{} dt/2 retries were needed", self.retries);
             self.warn(w);
         }
-        let summary = self.summary(wall_s, failure.as_ref());
+        let interrupted = interrupted.filter(|_| failure.is_none());
+        let summary = self.summary(wall_s, failure.as_ref(), interrupted);
         let text = serde_json::to_string_pretty(&summary).unwrap_or_else(|_| "{}".to_string());
         let summary_path = self.out.join("summary.json");
         let write_summary = std::fs::write(&summary_path, text + "\n");
@@ -685,8 +736,47 @@ where
                 summary_path.display()
             ))
         })?;
+        if let Some(signal) = interrupted {
+            let ckpt = self.out.join(checkpoint_name(self.solver.steps()));
+            return Err(CliError::Interrupted {
+                signal,
+                message: format!(
+                    "interrupted by {} after step {} (t = {:.6e} s): wrote {}, a snapshot and \
+                     summary.json; continue with\n  mpm-cli run {} --out {} --resume {}",
+                    signal_name(signal),
+                    self.solver.steps(),
+                    self.solver.time(),
+                    ckpt.display(),
+                    self.scene.path.display(),
+                    self.out.display(),
+                    ckpt.display()
+                ),
+            });
+        }
         if !self.quiet {
             self.print_report(wall_s);
+        }
+        Ok(())
+    }
+
+    /// The signal that asked the run to stop, if one did.
+    fn stop_signal(&self) -> Option<i32> {
+        let s = self.stop.as_ref()?.load(Ordering::SeqCst);
+        (s != 0).then_some(s as i32)
+    }
+
+    /// What an interrupted run leaves: a checkpoint of the current step (unless this run has
+    /// just written it), then a snapshot of it. The checkpoint is written first so that it
+    /// records the snapshot schedule without this extra frame: `--resume` removes that frame
+    /// and continues the series exactly as an uninterrupted run would.
+    fn write_interrupt_outputs(&mut self) -> Result<(), CliError> {
+        let keep = self.checkpoint_schedule.map_or(1, |(_, c)| c.keep);
+        let name = checkpoint_name(self.solver.steps());
+        if self.checkpoints_written.last() != Some(&name) {
+            self.write_checkpoint(keep)?;
+        }
+        if self.last_snapshot_step != Some(self.solver.steps()) {
+            self.write_snapshot()?;
         }
         Ok(())
     }
@@ -777,7 +867,12 @@ where
         let _ = std::io::stdout().flush();
     }
 
-    fn summary(&self, wall_s: f64, failure: Option<&CliError>) -> serde_json::Value {
+    fn summary(
+        &self,
+        wall_s: f64,
+        failure: Option<&CliError>,
+        interrupted: Option<i32>,
+    ) -> serde_json::Value {
         let fin = self.solver.diagnostics();
         let ini = &self.initial;
         let vec3 = |v: &[f64]| v.to_vec();
@@ -807,10 +902,19 @@ where
             .iter()
             .map(|(n, s)| (n.to_string(), s.json()))
             .collect();
-        let (status, error) = match failure {
-            None => ("ok", None),
-            Some(CliError::Instability(m)) => ("instability", Some(m.clone())),
-            Some(e) => ("error", Some(e.to_string())),
+        let (status, error) = match (failure, interrupted) {
+            (None, None) => ("ok", None),
+            (None, Some(sig)) => (
+                "interrupted",
+                Some(format!(
+                    "interrupted by {} after step {}; resume from {}",
+                    signal_name(sig),
+                    self.solver.steps(),
+                    checkpoint_name(self.solver.steps())
+                )),
+            ),
+            (Some(CliError::Instability(m)), _) => ("instability", Some(m.clone())),
+            (Some(e), _) => ("error", Some(e.to_string())),
         };
         let dt = if self.steps_this_run > 0 {
             json!({
@@ -830,6 +934,7 @@ where
             "particles": self.solver.particles().len(),
             "steps": self.solver.steps(),
             "steps_this_run": self.steps_this_run,
+            "signal": interrupted.map(signal_name),
             "resumed_from_step": if self.first_step > 0 { json!(self.first_step) } else { serde_json::Value::Null },
             "time": self.solver.time(),
             "dt": dt,

@@ -164,12 +164,14 @@ fn snapshots_hold_the_multigrid_columns_and_render_them() {
         ]);
         assert_eq!(o.status.code(), Some(0), "{field}: {}", stderr(&o));
     }
-    let png = std::fs::read(out.join("render").join(format!(
-        "frame_{:06}.png",
-        snaps.last().expect("snapshot").0
-    )))
-    .expect("png");
-    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    for field in ["phase", "phi_eff", "concentration"] {
+        let png = std::fs::read(out.join("render").join(format!(
+            "frame_{:06}_{field}.png",
+            snaps.last().expect("snapshot").0
+        )))
+        .expect("png");
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    }
     // An unknown material for --only is bad input.
     let o = cli(&["render", &out.to_string_lossy(), "--only", "lava"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));

@@ -5,47 +5,8 @@ mod common;
 
 use common::*;
 use mpm_cli::run::numbered_files;
-use mpm_io::{read_file, Data, Snapshot};
+use mpm_io::read_file;
 use std::path::Path;
-
-fn assert_bitwise(a: &Snapshot, b: &Snapshot, what: &str) {
-    assert_eq!(a.header.step, b.header.step, "{what}: step");
-    assert_eq!(
-        a.header.time.to_bits(),
-        b.header.time.to_bits(),
-        "{what}: time"
-    );
-    let names = |s: &Snapshot| s.fields.iter().map(|f| f.name.clone()).collect::<Vec<_>>();
-    assert_eq!(names(a), names(b), "{what}: fields");
-    for (fa, fb) in a.fields.iter().zip(&b.fields) {
-        match (&fa.data, &fb.data) {
-            (
-                Data::F64 {
-                    values: va,
-                    shape: sa,
-                },
-                Data::F64 {
-                    values: vb,
-                    shape: sb,
-                },
-            ) => {
-                assert_eq!(sa, sb, "{what}: shape of {}", fa.name);
-                for (i, (x, y)) in va.iter().zip(vb).enumerate() {
-                    assert_eq!(
-                        x.to_bits(),
-                        y.to_bits(),
-                        "{what}: {}[{i}]: {x} vs {y}",
-                        fa.name
-                    );
-                }
-            }
-            (Data::U32 { values: va, .. }, Data::U32 { values: vb, .. }) => {
-                assert_eq!(va, vb, "{what}: {}", fa.name)
-            }
-            _ => panic!("{what}: {} differs in type", fa.name),
-        }
-    }
-}
 
 fn run(scene: &Path, out: &Path, extra: &[&str]) {
     let mut args = vec![

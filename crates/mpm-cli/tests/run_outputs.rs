@@ -264,7 +264,7 @@ fn check_info_and_render() {
         .expect("render dir")
         .count();
     assert_eq!(pngs, numbered_files(&out, "snap_").len());
-    let png = std::fs::read(out.join("render/frame_000000.png")).expect("png");
+    let png = std::fs::read(out.join("render/frame_000000_speed.png")).expect("png");
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
     for field in ["material", "F", "plastic_jp", "pressure"] {
         let o = cli(&[

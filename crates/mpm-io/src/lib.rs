@@ -8,7 +8,8 @@
 //!   (strings), `extra_attrs` (1-D string array: the names of the extra attributes, in order),
 //!   and one f64 attribute per extra attribute ([`Header::attrs`]);
 //! - group `/particles`: one dataset per field, shaped `[N, …]`, f64 or u32 stored natively
-//!   (bit-exact round trip), each with a `unit` string attribute; the group's `field_order`
+//!   (bit-exact round trip; a snapshot may store its f64 fields as f32, and may shuffle and
+//!   gzip them in chunks: [`Storage`]), each with a `unit` string attribute; the group's `field_order`
 //!   attribute (1-D string array) lists the datasets in the order they were written, which is
 //!   the order [`read_file`] returns (the group also tracks link creation order, so h5py lists
 //!   them in that order too).
@@ -34,8 +35,8 @@ mod xdmf;
 
 pub use error::IoError;
 pub use snapshot::{
-    list_files, read_file, read_header, read_layout, reseal, write_file, Data, Field, FieldSpec,
-    FileKind, Header, Snapshot, CONNECTIVITY_DATASET, EXTRA_ATTRS_ATTR, FIELD_ORDER_ATTR,
-    MESH_GROUP, PARTICLES_GROUP, RESERVED_ROOT_ATTRS, UNIT_ATTR,
+    list_files, read_file, read_header, read_layout, reseal, write_file, write_file_with, Data,
+    Field, FieldSpec, FileKind, Header, Snapshot, Storage, CONNECTIVITY_DATASET, EXTRA_ATTRS_ATTR,
+    FIELD_ORDER_ATTR, MESH_GROUP, PARTICLES_GROUP, RESERVED_ROOT_ATTRS, UNIT_ATTR,
 };
 pub use xdmf::{write_xdmf, SeriesEntry};

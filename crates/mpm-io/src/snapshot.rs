@@ -47,8 +47,31 @@ pub struct FieldSpec {
     pub unit: String,
     /// Shape `[N, …]`.
     pub shape: Vec<usize>,
-    /// Whether the values are integers (`u32`) rather than `f64`.
+    /// Whether the values are integers (`u32`) rather than floating point.
     pub integer: bool,
+    /// Whether the file stores the floating-point values as `f32` (a snapshot written with
+    /// [`Storage::single`]); [`read_file`] widens them to `f64` exactly.
+    pub single: bool,
+}
+
+/// How the floating-point datasets of a snapshot are stored. The default, `f64` and
+/// uncompressed, is the only storage of checkpoints: they must round-trip bit for bit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Storage {
+    /// Store `f64` fields as `f32` (rounded to nearest), halving their size; snapshots only.
+    pub single: bool,
+    /// gzip (deflate) level 1–9, applied after HDF5's byte-shuffle filter to chunked datasets;
+    /// 0 writes contiguous, uncompressed datasets.
+    pub compression: u8,
+}
+
+impl Storage {
+    /// The spec of `field` as stored with this storage.
+    pub fn spec(&self, field: &Field) -> FieldSpec {
+        let mut spec = field.spec();
+        spec.single = self.single && !spec.integer;
+        spec
+    }
 }
 
 impl Field {
@@ -63,6 +86,7 @@ impl Field {
             unit: self.unit.clone(),
             shape,
             integer,
+            single: false,
         }
     }
 }
@@ -195,7 +219,40 @@ impl FileKind {
 /// attribute named like a reserved one, a NUL inside a string) are rejected with
 /// [`IoError::Format`] before anything is created.
 pub fn write_file(path: &Path, header: &Header, fields: &[Field]) -> Result<(), IoError> {
+    write_file_with(path, header, fields, Storage::default())
+}
+
+/// [`write_file`] with the floating-point datasets stored as `storage` says (`f32` and/or
+/// shuffled and gzip-compressed in chunks). A checkpoint with [`Storage::single`], a level
+/// above 9, or compression with a libhdf5 lacking the deflate filter give [`IoError::Format`].
+pub fn write_file_with(
+    path: &Path,
+    header: &Header,
+    fields: &[Field],
+    storage: Storage,
+) -> Result<(), IoError> {
     validate(path, header, fields)?;
+    if storage.single && header.kind == FileKind::Checkpoint {
+        return Err(format_err(
+            path,
+            "a checkpoint must store f64 values (it is resumed bit for bit), not f32".into(),
+        ));
+    }
+    if storage.compression > 9 {
+        return Err(format_err(
+            path,
+            format!(
+                "compression level {} (1-9, or 0 for none)",
+                storage.compression
+            ),
+        ));
+    }
+    if storage.compression > 0 && !hdf5::filters::deflate_available() {
+        return Err(format_err(
+            path,
+            "compression needs the deflate (zlib) filter, which this libhdf5 lacks".into(),
+        ));
+    }
     let block = checksum::block_size(
         fields
             .iter()
@@ -203,7 +260,7 @@ pub fn write_file(path: &Path, header: &Header, fields: &[Field]) -> Result<(), 
             .chain([CONNECTIVITY_DATASET.len()]),
     );
     replace_atomically(path, |tmp| {
-        write_hdf5(tmp, path, header, fields, block)?;
+        write_hdf5(tmp, path, header, fields, (storage, block))?;
         checksum::seal(tmp, path)
     })
 }
@@ -235,7 +292,17 @@ pub fn read_file(path: &Path) -> Result<Snapshot, IoError> {
     for name in field_order(&group, path)? {
         let ds = field_dataset(&group, path, &name)?;
         let spec = field_spec(&ds, path, &name)?;
-        let data = if spec.integer {
+        let data = if spec.single {
+            Data::F64 {
+                values: ds
+                    .read_raw::<f32>()
+                    .map_err(h5err(path, &dataset_path(&name)))?
+                    .into_iter()
+                    .map(f64::from)
+                    .collect(),
+                shape: spec.shape,
+            }
+        } else if spec.integer {
             Data::U32 {
                 values: ds
                     .read_raw::<u32>()
@@ -394,7 +461,7 @@ fn write_hdf5(
     path: &Path,
     header: &Header,
     fields: &[Field],
-    block: u64,
+    (storage, block): (Storage, u64),
 ) -> Result<(), IoError> {
     let tmp_name = tmp
         .file_name()
@@ -438,19 +505,23 @@ fn write_hdf5(
         for f in fields {
             let what = dataset_path(&f.name);
             let ds = match &f.data {
+                Data::F64 { values, shape } if storage.single => {
+                    let single: Vec<f32> = values.iter().map(|&v| v as f32).collect();
+                    let ds = dataset_builder::<f32>(&group, shape, storage)
+                        .create(f.name.as_str())
+                        .map_err(err(&what))?;
+                    ds.write_raw(single.as_slice()).map_err(err(&what))?;
+                    ds
+                }
                 Data::F64 { values, shape } => {
-                    let ds = group
-                        .new_dataset::<f64>()
-                        .shape(shape.as_slice())
+                    let ds = dataset_builder::<f64>(&group, shape, storage)
                         .create(f.name.as_str())
                         .map_err(err(&what))?;
                     ds.write_raw(values.as_slice()).map_err(err(&what))?;
                     ds
                 }
                 Data::U32 { values, shape } => {
-                    let ds = group
-                        .new_dataset::<u32>()
-                        .shape(shape.as_slice())
+                    let ds = dataset_builder::<u32>(&group, shape, storage)
                         .create(f.name.as_str())
                         .map_err(err(&what))?;
                     ds.write_raw(values.as_slice()).map_err(err(&what))?;
@@ -466,6 +537,31 @@ fn write_hdf5(
         // close below really releases the file.
     }
     file.close().map_err(err("(closing) the file"))
+}
+
+/// Rows of a dataset per compressed chunk: about 256 KiB of values per chunk.
+const CHUNK_VALUES: usize = 1 << 15;
+
+/// A dataset of `T` shaped `shape` under `group`: contiguous, or, with compression, chunked
+/// along the particles (whole rows, about [`CHUNK_VALUES`] values a chunk) with the shuffle
+/// and deflate filters. An empty dataset stays contiguous (chunks cannot be empty).
+fn dataset_builder<T: hdf5::H5Type>(
+    group: &hdf5::Group,
+    shape: &[usize],
+    storage: Storage,
+) -> hdf5::DatasetBuilderEmptyShape {
+    let b = group.new_dataset::<T>();
+    let total: usize = shape.iter().product();
+    if storage.compression == 0 || total == 0 {
+        return b.shape(shape);
+    }
+    let row: usize = shape.iter().skip(1).product::<usize>().max(1);
+    let mut chunk = shape.to_vec();
+    chunk[0] = (CHUNK_VALUES / row).clamp(1, shape[0]);
+    b.shape(shape)
+        .chunk(chunk)
+        .shuffle()
+        .deflate(storage.compression)
 }
 
 /// A snapshot's `/mesh/connectivity`: `0, 1, …, N−1` (u32), N the rows of `x`, for XDMF
@@ -608,13 +704,14 @@ fn field_spec(ds: &hdf5::Dataset, path: &Path, name: &str) -> Result<FieldSpec, 
         .dtype()
         .and_then(|t| t.to_descriptor())
         .map_err(h5err(path, &what))?;
-    let integer = match td {
-        F64 => false,
-        U32 => true,
+    let (integer, single) = match td {
+        F64 => (false, false),
+        F32 => (false, true),
+        U32 => (true, false),
         other => {
             return Err(format_err(
                 path,
-                format!("{what} has type {other}, expected f64 or u32"),
+                format!("{what} has type {other}, expected f64, f32 or u32"),
             ))
         }
     };
@@ -639,10 +736,12 @@ fn field_spec(ds: &hdf5::Dataset, path: &Path, name: &str) -> Result<FieldSpec, 
         unit,
         shape,
         integer,
+        single,
     })
 }
 
 const F64: TypeDescriptor = TypeDescriptor::Float(FloatSize::U8);
+const F32: TypeDescriptor = TypeDescriptor::Float(FloatSize::U4);
 const U64: TypeDescriptor = TypeDescriptor::Unsigned(IntSize::U8);
 const U32: TypeDescriptor = TypeDescriptor::Unsigned(IntSize::U4);
 

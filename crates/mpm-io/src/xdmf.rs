@@ -52,7 +52,8 @@ impl SeriesEntry {
 /// `N 2 2`, as this writer did before, made VTK read one tuple of 4N components). ParaView
 /// shows the particles with the "Points" or "Point Gaussian" representation.
 ///
-/// `f64` data is `Float`/8 bytes, `u32` data `UInt`/4 bytes. Names are XML-escaped.
+/// `f64` data is `Float`/8 bytes, `f32` data ([`FieldSpec::single`]) `Float`/4 bytes, `u32`
+/// data `UInt`/4 bytes. Names are XML-escaped.
 /// The file is written to a temporary name in the same directory and renamed into place.
 /// An entry without a usable `x` field, a field whose first dimension differs from N, or a
 /// non-finite time gives [`IoError::Format`].
@@ -173,7 +174,11 @@ fn render_entry(out: &mut String, e: &SeriesEntry) -> Result<(), String> {
 
 /// A `DataItem` referencing `/particles/<name>` in `file` (already escaped).
 fn data_item(out: &mut String, file: &str, f: &FieldSpec, dims: &str, indent: &str) {
-    let (number_type, precision) = if f.integer { ("UInt", 4) } else { ("Float", 8) };
+    let (number_type, precision) = match (f.integer, f.single) {
+        (true, _) => ("UInt", 4),
+        (false, true) => ("Float", 4),
+        (false, false) => ("Float", 8),
+    };
     let _ = writeln!(
         out,
         "{indent}<DataItem Dimensions=\"{dims}\" NumberType=\"{number_type}\" \

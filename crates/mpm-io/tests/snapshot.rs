@@ -1,8 +1,8 @@
 //! Round trips, atomic writes and error paths of the snapshot/checkpoint files.
 
 use mpm_io::{
-    list_files, read_file, read_header, read_layout, reseal, write_file, Data, Field, FileKind,
-    Header, IoError,
+    list_files, read_file, read_header, read_layout, reseal, write_file, write_file_with, Data,
+    Field, FileKind, Header, IoError, Storage,
 };
 use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -194,6 +194,76 @@ fn roundtrip(dir_name: &str, kind: FileKind, dim: usize, n: usize) {
     let (h2, specs) = read_layout(&path).unwrap();
     assert_eq!(h2, h);
     assert_eq!(specs, fs.iter().map(Field::spec).collect::<Vec<_>>());
+}
+
+#[test]
+fn compressed_and_single_precision_snapshots_round_trip() {
+    let dir = scratch("storage");
+    let (n, dim) = (3000, 3);
+    let h = header(FileKind::Snapshot, dim as u32);
+    let fs = fields(n, dim, 7);
+    let size = |p: &Path| std::fs::metadata(p).unwrap().len();
+    let write = |name: &str, storage: Storage| {
+        let path = dir.join(name);
+        write_file_with(&path, &h, &fs, storage).unwrap();
+        path
+    };
+    let plain = write("plain.h5", Storage::default());
+    // Compressed f64 is still bit-exact.
+    let zipped = write(
+        "zipped.h5",
+        Storage {
+            single: false,
+            compression: 4,
+        },
+    );
+    assert_bit_identical(&read_file(&zipped).unwrap(), &h, &fs);
+    // f32: every float is the f64 rounded to f32; integers are untouched.
+    let single = write(
+        "single.h5",
+        Storage {
+            single: true,
+            compression: 0,
+        },
+    );
+    let back = read_file(&single).unwrap();
+    let (_, specs) = read_layout(&single).unwrap();
+    for ((fa, fb), spec) in back.fields.iter().zip(&fs).zip(&specs) {
+        match (&fa.data, &fb.data) {
+            (Data::F64 { values: a, .. }, Data::F64 { values: b, .. }) => {
+                assert!(spec.single, "{} stored as f32", fa.name);
+                for (x, y) in a.iter().zip(b) {
+                    assert_eq!(x.to_bits(), f64::from(*y as f32).to_bits(), "{}", fa.name);
+                }
+            }
+            _ => {
+                assert!(!spec.single);
+                assert_eq!(fa.data, fb.data, "{}", fa.name);
+            }
+        }
+    }
+    // Random bits do not compress, but f32 halves the floats.
+    let (p, s) = (size(&plain), size(&single));
+    assert!(s < p * 6 / 10, "f32 {s} B vs f64 {p} B");
+    // A checkpoint is never f32; levels are 0-9.
+    let ck = header(FileKind::Checkpoint, dim as u32);
+    let single_ck = Storage {
+        single: true,
+        compression: 0,
+    };
+    let e = write_file_with(&dir.join("ck.h5"), &ck, &fs, single_ck).unwrap_err();
+    assert!(e.to_string().contains("f64"), "{e}");
+    let e = write_file_with(
+        &dir.join("bad.h5"),
+        &h,
+        &fs,
+        Storage {
+            single: false,
+            compression: 10,
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("compression level 10"), "{e}");
 }
 
 #[test]
@@ -474,11 +544,11 @@ fn damaged_particle_group_is_a_format_error() {
     let err = read_damaged("wrong_dtype", |f| {
         f.unlink("particles/mass").unwrap();
         let ds = f
-            .new_dataset::<f32>()
+            .new_dataset::<i16>()
             .shape([5])
             .create("particles/mass")
             .unwrap();
-        ds.write_raw(&[1.0f32; 5]).unwrap();
+        ds.write_raw(&[1i16; 5]).unwrap();
         let unit: hdf5::types::VarLenUnicode = "kg".parse().unwrap();
         ds.new_attr::<hdf5::types::VarLenUnicode>()
             .shape(())

@@ -19,6 +19,7 @@ fn spec(name: &str, shape: &[usize], integer: bool) -> FieldSpec {
         unit: "1".into(),
         shape: shape.to_vec(),
         integer,
+        single: false,
     }
 }
 
@@ -33,6 +34,10 @@ fn entry(time: f64, step: usize, n: usize, dim: usize) -> SeriesEntry {
             spec("mass", &[n], false),
             spec("stress", &[n, dim, dim], false),
             spec("material", &[n], true),
+            FieldSpec {
+                single: true,
+                ..spec("pressure", &[n], false)
+            },
         ],
     }
 }
@@ -127,6 +132,8 @@ fn check(path: &Path, entries: &[SeriesEntry]) -> usize {
             assert_eq!(reference, format!("{}:/particles/{}", e.file, f.name));
             if f.integer {
                 assert_eq!((&*number_type, &*precision), ("UInt", "4"));
+            } else if f.single {
+                assert_eq!((&*number_type, &*precision), ("Float", "4"));
             } else {
                 assert_eq!((&*number_type, &*precision), ("Float", "8"));
             }

@@ -13,6 +13,8 @@ pub(crate) struct RawOutput {
     interval: Option<f64>,
     interval_steps: Option<u64>,
     fields: Option<Vec<String>>,
+    precision: Option<String>,
+    compression: Option<u8>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -49,6 +51,21 @@ pub struct OutputDef {
     pub interval: Interval,
     /// Fields written to snapshots.
     pub fields: Vec<String>,
+    /// Floating-point precision of snapshot datasets: `"f64"` (default) or `"f32"` (half the
+    /// size; checkpoints stay f64).
+    pub precision: String,
+    /// gzip level 1–9 of snapshot datasets (with HDF5's shuffle filter, in chunks); 0: none.
+    pub compression: u8,
+}
+
+impl OutputDef {
+    /// How snapshots store their datasets.
+    pub fn storage(&self) -> mpm_io::Storage {
+        mpm_io::Storage {
+            single: self.precision == "f32",
+            compression: self.compression,
+        }
+    }
 }
 
 /// `[checkpoint]`.
@@ -155,10 +172,28 @@ pub(super) fn resolve_output(
                 .collect()
         }
     };
+    let precision = o
+        .and_then(|o| o.precision.clone())
+        .unwrap_or_else(|| "f64".into());
+    if precision != "f64" && precision != "f32" {
+        c.err(
+            "output.precision",
+            format!("\"{precision}\": must be \"f64\" or \"f32\""),
+        );
+    }
+    let compression = o.and_then(|o| o.compression).unwrap_or(0);
+    if compression > 9 {
+        c.err(
+            "output.compression",
+            format!("{compression}: a gzip level 1-9, or 0 for none"),
+        );
+    }
     OutputDef {
         directory,
         interval,
         fields,
+        precision,
+        compression,
     }
 }
 

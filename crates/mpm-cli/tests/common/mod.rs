@@ -1,6 +1,7 @@
 //! Helpers shared by the `mpm-cli` integration tests.
 #![allow(dead_code)]
 
+use mpm_io::{Data, Snapshot};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -19,9 +20,9 @@ pub fn python_with(modules: &str) -> Option<String> {
 }
 
 /// The `f64` values of field `name` of a snapshot (panics if absent or not `f64`).
-pub fn f64_field(s: &mpm_io::Snapshot, name: &str) -> Vec<f64> {
+pub fn f64_field(s: &Snapshot, name: &str) -> Vec<f64> {
     let f = s.field(name).unwrap_or_else(|| panic!("field {name}"));
-    let mpm_io::Data::F64 { values, .. } = &f.data else {
+    let Data::F64 { values, .. } = &f.data else {
         panic!("{name} is not f64")
     };
     values.clone()
@@ -43,6 +44,47 @@ impl Rng {
     /// A number in `0..n` (0 when `n` is 0).
     pub fn below(&mut self, n: usize) -> usize {
         (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+/// Asserts that two snapshots or checkpoints have the same step, time and fields, every value
+/// bit for bit (`f64::to_bits`); `what` names the comparison in failure messages.
+pub fn assert_bitwise(a: &Snapshot, b: &Snapshot, what: &str) {
+    assert_eq!(a.header.step, b.header.step, "{what}: step");
+    assert_eq!(
+        a.header.time.to_bits(),
+        b.header.time.to_bits(),
+        "{what}: time"
+    );
+    let names = |s: &Snapshot| s.fields.iter().map(|f| f.name.clone()).collect::<Vec<_>>();
+    assert_eq!(names(a), names(b), "{what}: fields");
+    for (fa, fb) in a.fields.iter().zip(&b.fields) {
+        match (&fa.data, &fb.data) {
+            (
+                Data::F64 {
+                    values: va,
+                    shape: sa,
+                },
+                Data::F64 {
+                    values: vb,
+                    shape: sb,
+                },
+            ) => {
+                assert_eq!(sa, sb, "{what}: shape of {}", fa.name);
+                for (i, (x, y)) in va.iter().zip(vb).enumerate() {
+                    assert_eq!(
+                        x.to_bits(),
+                        y.to_bits(),
+                        "{what}: {}[{i}]: {x} vs {y}",
+                        fa.name
+                    );
+                }
+            }
+            (Data::U32 { values: va, .. }, Data::U32 { values: vb, .. }) => {
+                assert_eq!(va, vb, "{what}: {}", fa.name)
+            }
+            _ => panic!("{what}: {} differs in type", fa.name),
+        }
     }
 }
 

@@ -1,0 +1,314 @@
+//! `mpm-cli surface DIR`: a triangle mesh of the fluid's free surface per 3D snapshot,
+//! reconstructed with `splashsurf_lib` (an SPH density of the particles, cubic spline kernel,
+//! sampled on a marching-cubes grid and contoured at a fraction of the rest density), written
+//! as binary PLY files `DIR/surface/surface_NNNNNN.ply` that Blender, ParaView and MeshLab
+//! open.
+//!
+//! Parameters are relative to the particle radius `r`, by default half the median particle
+//! spacing (`volume0^(1/3) / 2`, so that splashsurf's particle volume `(2r)³` is the
+//! particles' own): kernel smoothing length 2 r (compact support 4 r), marching-cubes cells of
+//! 0.5 r, iso-surface at 0.6 of the rest density (splashsurf's own defaults). Each frame is
+//! reconstructed on one thread (frames run in parallel), so the files do not depend on the
+//! number of threads.
+
+use crate::error::CliError;
+use crate::render::{particle_spacing, select_snapshots};
+use crate::scene::{self, ModelDef};
+use mpm_io::{read_file, Data};
+use rayon::prelude::*;
+use splashsurf_lib::nalgebra::Vector3;
+use splashsurf_lib::{reconstruct_surface, Parameters, SpatialDecomposition};
+use std::path::{Path, PathBuf};
+
+/// Options of `mpm-cli surface`.
+#[derive(Clone, Debug)]
+pub struct SurfaceOptions {
+    /// Output directory of a run (holding `snap_*.h5`).
+    pub dir: PathBuf,
+    /// Only this frame (default: every frame).
+    pub frame: Option<u64>,
+    /// Materials whose particles form the surface, by name (default: every fluid material).
+    pub materials: Vec<String>,
+    /// Particle radius (m); default half the median particle spacing.
+    pub radius: Option<f64>,
+    /// Kernel smoothing length, in particle radii (the compact support is twice this).
+    pub smoothing_length: f64,
+    /// Edge length of the marching-cubes cells, in particle radii.
+    pub cube_size: f64,
+    /// Iso-surface level as a fraction of the rest density.
+    pub iso: f64,
+}
+
+impl Default for SurfaceOptions {
+    fn default() -> Self {
+        Self {
+            dir: PathBuf::new(),
+            frame: None,
+            materials: Vec::new(),
+            radius: None,
+            smoothing_length: 2.0,
+            cube_size: 0.5,
+            iso: 0.6,
+        }
+    }
+}
+
+/// One mesh written.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceFile {
+    /// The PLY file.
+    pub path: PathBuf,
+    /// Snapshot frame number.
+    pub frame: u64,
+    /// Particles that entered the reconstruction.
+    pub particles: usize,
+    /// Vertices of the mesh.
+    pub vertices: usize,
+    /// Triangles of the mesh.
+    pub triangles: usize,
+    /// Volume enclosed by the mesh (m³, by the divergence theorem).
+    pub volume: f64,
+}
+
+/// The most marching-cubes cells a reconstruction may span (the bounding box of the particles
+/// over the cell volume); beyond it the options are refused rather than exhausting memory.
+const MAX_CELLS: f64 = 2e9;
+
+/// Reconstructs the surfaces of the chosen frames and writes one PLY file per frame.
+pub fn surface(opts: &SurfaceOptions) -> Result<Vec<SurfaceFile>, CliError> {
+    let bad = |m: String| CliError::BadInput(format!("error: surface: {m}"));
+    for (name, v) in [
+        ("--smoothing-length", opts.smoothing_length),
+        ("--cube-size", opts.cube_size),
+        ("--iso", opts.iso),
+        ("--radius", opts.radius.unwrap_or(1.0)),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(bad(format!("{name} {v}: must be a positive number")));
+        }
+    }
+    let chosen = select_snapshots(&opts.dir, opts.frame, opts.frame.is_none()).map_err(bad)?;
+    let out_dir = opts.dir.join("surface");
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| CliError::Other(format!("error: {}: {e}", out_dir.display())))?;
+    chosen
+        .par_iter()
+        .map(|(frame, path)| {
+            let (positions, radius, time) = fluid_particles(path, opts).map_err(bad)?;
+            let mesh = reconstruct(&positions, radius, opts).map_err(bad)?;
+            let volume = enclosed_volume(&mesh.0, &mesh.1);
+            let ply = out_dir.join(format!("surface_{frame:06}.ply"));
+            let comment =
+                format!("mpm-cli surface: frame {frame}, t = {time} s, radius {radius} m");
+            std::fs::write(&ply, ply_bytes(&mesh.0, &mesh.1, &comment)).map_err(|e| {
+                CliError::Other(format!("error: cannot write {}: {e}", ply.display()))
+            })?;
+            Ok(SurfaceFile {
+                path: ply,
+                frame: *frame,
+                particles: positions.len(),
+                vertices: mesh.0.len(),
+                triangles: mesh.1.len(),
+                volume,
+            })
+        })
+        .collect()
+}
+
+/// The positions of the chosen materials' particles in snapshot `path`, the particle radius
+/// (m) and the snapshot's time (s).
+fn fluid_particles(
+    path: &Path,
+    opts: &SurfaceOptions,
+) -> Result<(Vec<Vector3<f64>>, f64, f64), String> {
+    let s = read_file(path).map_err(|e| e.to_string())?;
+    if s.header.dim != 3 {
+        return Err(format!(
+            "{}: surfaces need 3D snapshots; this run is {}D",
+            path.display(),
+            s.header.dim
+        ));
+    }
+    let stored = scene::parse(Path::new("scene.toml"), &s.header.scene)
+        .map_err(|_| format!("{}: the stored scene cannot be read", path.display()))?;
+    let materials = &stored.scene.materials;
+    let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+    let chosen: Vec<u32> = if opts.materials.is_empty() {
+        let fluids: Vec<u32> = (0..materials.len() as u32)
+            .filter(|&k| matches!(materials[k as usize].model, ModelDef::Tait(_)))
+            .collect();
+        if fluids.is_empty() {
+            return Err(format!(
+                "the scene has no fluid material; choose materials with --material (materials: \
+                 {})",
+                names.join(", ")
+            ));
+        }
+        fluids
+    } else {
+        opts.materials
+            .iter()
+            .map(|m| {
+                names
+                    .iter()
+                    .position(|n| n == m)
+                    .map(|k| k as u32)
+                    .ok_or_else(|| {
+                        format!(
+                            "--material: no material \"{m}\" (materials: {})",
+                            names.join(", ")
+                        )
+                    })
+            })
+            .collect::<Result<_, _>>()?
+    };
+    let Some(Data::F64 { values: x, shape }) = s.field("x").map(|f| &f.data) else {
+        return Err(format!("{}: no positions `x`", path.display()));
+    };
+    let n = shape[0];
+    let material: Vec<u32> = match s.field("material").map(|f| &f.data) {
+        Some(Data::U32 { values, .. }) if values.len() == n => values.clone(),
+        _ if materials.len() == 1 => vec![0; n],
+        _ => return Err(format!("{}: no field `material`", path.display())),
+    };
+    let positions = (0..n)
+        .filter(|&p| chosen.contains(&material[p]))
+        .map(|p| Vector3::new(x[3 * p], x[3 * p + 1], x[3 * p + 2]))
+        .collect();
+    let radius = match opts.radius {
+        Some(r) => r,
+        None => {
+            0.5 * particle_spacing(&s, 3).ok_or_else(|| {
+                format!(
+                    "{}: no `volume0` to derive the particle spacing from; give --radius",
+                    path.display()
+                )
+            })?
+        }
+    };
+    Ok((positions, radius, s.header.time))
+}
+
+/// A triangle mesh: vertices (m) and triangles (indices, counter-clockwise seen from outside).
+type Mesh = (Vec<[f64; 3]>, Vec<[usize; 3]>);
+
+/// The surface of `positions` with particle radius `radius` (m).
+fn reconstruct(
+    positions: &[Vector3<f64>],
+    radius: f64,
+    opts: &SurfaceOptions,
+) -> Result<Mesh, String> {
+    if positions.is_empty() {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    let cube = opts.cube_size * radius;
+    let (mut lo, mut hi) = (positions[0], positions[0]);
+    for p in positions {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let margin = 2.0 * opts.smoothing_length * radius + cube;
+    let cells: f64 = (0..3)
+        .map(|a| (hi[a] - lo[a] + 2.0 * margin) / cube)
+        .product();
+    if cells.is_nan() || cells > MAX_CELLS {
+        return Err(format!(
+            "the marching-cubes grid would have {cells:.2e} cells (at most {MAX_CELLS:.0e}); \
+             give a larger --cube-size or --radius"
+        ));
+    }
+    let mut params = Parameters::new(radius, 2.0 * opts.smoothing_length * radius, cube);
+    params.iso_surface_threshold = opts.iso;
+    // One thread per frame: the mesh is then the same for any thread count.
+    params.enable_multi_threading = false;
+    params.spatial_decomposition = SpatialDecomposition::default();
+    let r = reconstruct_surface::<i64, f64>(positions, &params)
+        .map_err(|e| format!("surface reconstruction failed: {e}"))?;
+    let vertices: Vec<[f64; 3]> = r.mesh.vertices.iter().map(|v| [v.x, v.y, v.z]).collect();
+    let mut triangles = r.mesh.triangles;
+    // Orient the triangles so that the normals point out of the fluid.
+    if enclosed_volume(&vertices, &triangles) < 0.0 {
+        for t in &mut triangles {
+            t.swap(1, 2);
+        }
+    }
+    Ok((vertices, triangles))
+}
+
+/// The volume enclosed by a closed, consistently oriented triangle mesh (m³): the sum over
+/// triangles of `a · (b × c) / 6` (divergence theorem); positive for outward normals.
+pub fn enclosed_volume(vertices: &[[f64; 3]], triangles: &[[usize; 3]]) -> f64 {
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| vertices[i]);
+            let cross = [
+                b[1] * c[2] - b[2] * c[1],
+                b[2] * c[0] - b[0] * c[2],
+                b[0] * c[1] - b[1] * c[0],
+            ];
+            (a[0] * cross[0] + a[1] * cross[1] + a[2] * cross[2]) / 6.0
+        })
+        .sum()
+}
+
+/// A binary little-endian PLY file: `float` vertex coordinates (m) and triangles as
+/// `uchar`-counted `int` index lists.
+fn ply_bytes(vertices: &[[f64; 3]], triangles: &[[usize; 3]], comment: &str) -> Vec<u8> {
+    let header = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment {comment}\nelement vertex {}\n\
+         property float x\nproperty float y\nproperty float z\nelement face {}\n\
+         property list uchar int vertex_indices\nend_header\n",
+        vertices.len(),
+        triangles.len()
+    );
+    let mut out = Vec::with_capacity(header.len() + 12 * vertices.len() + 13 * triangles.len());
+    out.extend_from_slice(header.as_bytes());
+    for v in vertices {
+        for c in v {
+            out.extend_from_slice(&(*c as f32).to_le_bytes());
+        }
+    }
+    for t in triangles {
+        out.push(3);
+        for &i in t {
+            out.extend_from_slice(&(i as i32).to_le_bytes());
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_volume_of_a_unit_tetrahedron_and_cube() {
+        let v = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ];
+        // Outward orientation of the four faces.
+        let t = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        assert!((enclosed_volume(&v, &t) - 1.0 / 6.0).abs() < 1e-15);
+        // Translation does not change it.
+        let w: Vec<[f64; 3]> = v
+            .iter()
+            .map(|p| [p[0] + 5.0, p[1] - 2.0, p[2] + 1.0])
+            .collect();
+        assert!((enclosed_volume(&w, &t) - 1.0 / 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn ply_header_counts_and_sizes() {
+        let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let b = ply_bytes(&v, &[[0, 1, 2]], "test");
+        let text = String::from_utf8_lossy(&b);
+        let end = text.find("end_header\n").expect("end_header") + "end_header\n".len();
+        assert!(text.starts_with("ply\nformat binary_little_endian 1.0\n"));
+        assert!(text.contains("element vertex 3\n") && text.contains("element face 1\n"));
+        assert_eq!(b.len() - end, 3 * 12 + 13);
+    }
+}

@@ -1,0 +1,274 @@
+//! `mpm-cli surface`: the reconstructed surface of a known block of water particles is a
+//! closed, outward-oriented mesh enclosing the block's volume within 2 %, written as a valid
+//! binary PLY (checked here by an independent parser, and by VTK's reader when available),
+//! the same for any thread count; bad input exits 2.
+
+mod common;
+
+use common::*;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A 3D water block [0.1, 0.3]³ (0.008 m³) and a jelly cube [0.35, 0.45] × [0.1, 0.2] ×
+/// [0.35, 0.45] (0.001 m³), 8 particles per cell of 0.025 m.
+const BLOCKS_3D: &str = r#"
+[simulation]
+dim = 3
+steps = 20
+gravity = [0.0, -9.81, 0.0]
+
+[grid]
+min = [0.0, 0.0, 0.0]
+max = [0.5, 0.5, 0.5]
+dx = 0.025
+
+[[materials]]
+name = "water"
+preset = "water"
+
+[[materials]]
+name = "jelly"
+preset = "jelly"
+
+[[bodies]]
+name = "block"
+material = "water"
+shape = "box"
+min = [0.1, 0.1, 0.1]
+max = [0.3, 0.3, 0.3]
+
+[[bodies]]
+name = "cube"
+material = "jelly"
+shape = "box"
+min = [0.35, 0.1, 0.35]
+max = [0.45, 0.2, 0.45]
+
+[[boundaries]]
+type = "walls"
+
+[output]
+interval_steps = 10
+"#;
+
+/// A binary PLY as written by `mpm-cli surface`, parsed strictly.
+struct Ply {
+    vertices: Vec<[f64; 3]>,
+    triangles: Vec<[usize; 3]>,
+}
+
+fn read_ply(path: &Path) -> Ply {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .expect("end_header")
+        + 11;
+    let header = std::str::from_utf8(&bytes[..end]).expect("ASCII header");
+    let lines: Vec<&str> = header
+        .lines()
+        .filter(|l| !l.starts_with("comment"))
+        .collect();
+    assert_eq!(lines[0], "ply");
+    assert_eq!(lines[1], "format binary_little_endian 1.0");
+    let n: usize = lines[2]
+        .strip_prefix("element vertex ")
+        .expect("element vertex")
+        .parse()
+        .expect("vertex count");
+    assert_eq!(
+        lines[3..6],
+        ["property float x", "property float y", "property float z"]
+    );
+    let m: usize = lines[6]
+        .strip_prefix("element face ")
+        .expect("element face")
+        .parse()
+        .expect("face count");
+    assert_eq!(lines[7], "property list uchar int vertex_indices");
+    assert_eq!(lines[8], "end_header");
+    assert_eq!(lines.len(), 9);
+    let body = &bytes[end..];
+    assert_eq!(body.len(), 12 * n + 13 * m, "data size");
+    let f32_at = |o: usize| f32::from_le_bytes(body[o..o + 4].try_into().unwrap()) as f64;
+    let vertices = (0..n)
+        .map(|k| [0, 1, 2].map(|a| f32_at(12 * k + 4 * a)))
+        .collect();
+    let triangles = (0..m)
+        .map(|k| {
+            let o = 12 * n + 13 * k;
+            assert_eq!(body[o], 3, "face {k} is a triangle");
+            [0, 1, 2].map(|a| {
+                let i = i32::from_le_bytes(body[o + 1 + 4 * a..o + 5 + 4 * a].try_into().unwrap());
+                assert!(i >= 0 && (i as usize) < n, "index {i} of {n}");
+                i as usize
+            })
+        })
+        .collect();
+    Ply {
+        vertices,
+        triangles,
+    }
+}
+
+impl Ply {
+    /// Enclosed volume by the divergence theorem (m³).
+    fn volume(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.vertices[i]);
+                (a[0] * (b[1] * c[2] - b[2] * c[1])
+                    + a[1] * (b[2] * c[0] - b[0] * c[2])
+                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                    / 6.0
+            })
+            .sum()
+    }
+
+    /// Whether every edge is shared by exactly two triangles that traverse it in opposite
+    /// directions (a closed, consistently oriented surface).
+    fn closed_and_oriented(&self) -> bool {
+        let mut directed: HashMap<(usize, usize), u32> = HashMap::new();
+        for t in &self.triangles {
+            for k in 0..3 {
+                *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
+            }
+        }
+        directed
+            .iter()
+            .all(|(&(a, b), &c)| c == 1 && directed.get(&(b, a)) == Some(&1))
+    }
+}
+
+fn run(d: &Path, text: &str) -> PathBuf {
+    let scene = write(d, "s.toml", text);
+    let out = d.join("out");
+    let o = cli(&[
+        "run",
+        &scene.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    out
+}
+
+fn surface(out: &Path, extra: &[&str], threads: &str) -> String {
+    let mut args = vec!["surface", out.to_str().expect("utf-8")];
+    args.extend_from_slice(extra);
+    let o = Command::new(bin())
+        .args(&args)
+        .env("RAYON_NUM_THREADS", threads)
+        .output()
+        .expect("run mpm-cli");
+    assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+    stdout(&o)
+}
+
+#[test]
+fn the_surface_of_a_particle_block_encloses_its_volume() {
+    let d = tmpdir("surface");
+    let out = run(&d, BLOCKS_3D);
+    let printed = surface(&out, &[], "1");
+    // One line per snapshot (three), each naming its PLY file.
+    assert_eq!(printed.lines().count(), 3, "{printed}");
+    let first = out.join("surface/surface_000000.ply");
+    let bytes_1 = std::fs::read(&first).expect("ply");
+    // Frame 0 is the block as sampled: 0.2³ m³.
+    let ply = read_ply(&first);
+    assert!(ply.triangles.len() > 1000);
+    assert!(
+        ply.closed_and_oriented(),
+        "open or inconsistently oriented mesh"
+    );
+    let v = ply.volume();
+    let err = v / 0.008 - 1.0;
+    eprintln!(
+        "water block: {} triangles, volume {v:.6e} m^3, error {:+.2} %",
+        ply.triangles.len(),
+        100.0 * err
+    );
+    assert!(err.abs() < 0.02, "volume {v} vs 0.008");
+    // The printed volume is the mesh's (up to the f32 vertices of the file).
+    let line = printed.lines().next().expect("line");
+    let printed_v: f64 = line
+        .split("volume ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .expect("volume in the output");
+    assert!((printed_v / v - 1.0).abs() < 1e-4, "{line}");
+    // Every frame's surface lies in the domain, and the volume stays within 2 % (water is
+    // nearly incompressible over 20 steps).
+    for frame in 1..3 {
+        let p = read_ply(&out.join(format!("surface/surface_{frame:06}.ply")));
+        assert!(p.vertices.iter().flatten().all(|c| (0.0..=0.5).contains(c)));
+        assert!((p.volume() / 0.008 - 1.0).abs() < 0.02);
+    }
+    // Another thread count gives the same bytes.
+    surface(&out, &[], "2");
+    assert_eq!(
+        std::fs::read(&first).expect("ply"),
+        bytes_1,
+        "thread count changed the mesh"
+    );
+
+    // A chosen material: the jelly cube, 0.001 m³.
+    surface(&out, &["--material", "jelly", "--frame", "0"], "2");
+    let jelly = read_ply(&first);
+    assert!(jelly.closed_and_oriented());
+    let err = jelly.volume() / 0.001 - 1.0;
+    eprintln!("jelly cube: volume error {:+.2} %", 100.0 * err);
+    assert!(err.abs() < 0.04, "jelly volume {}", jelly.volume());
+
+    // VTK's PLY reader (what ParaView uses) reads the same counts.
+    if let Some(py) = python_with("vtkmodules.vtkIOPLY") {
+        let script = "import sys\nfrom vtkmodules.vtkIOPLY import vtkPLYReader\n\
+                      r = vtkPLYReader(); r.SetFileName(sys.argv[1]); r.Update()\n\
+                      m = r.GetOutput(); print(m.GetNumberOfPoints(), m.GetNumberOfPolys())";
+        let o = Command::new(py)
+            .args(["-c", script, &first.to_string_lossy()])
+            .output()
+            .expect("python");
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            stdout(&o).trim(),
+            format!("{} {}", jelly.vertices.len(), jelly.triangles.len())
+        );
+    }
+}
+
+#[test]
+fn bad_surface_input_exits_2() {
+    let d = tmpdir("surface-bad");
+    let out = run(&d, &BLOCKS_3D.replace("steps = 20", "steps = 1"));
+    let dir = out.to_str().expect("utf-8");
+    for (args, needle) in [
+        (vec!["--iso", "0"], "--iso"),
+        (vec!["--radius", "-1"], "--radius"),
+        (vec!["--material", "lava"], "lava"),
+        (vec!["--frame", "9"], "no frame 9"),
+        (vec!["--cube-size", "1e-6"], "marching-cubes grid"),
+    ] {
+        let mut a = vec!["surface", dir];
+        a.extend_from_slice(&args);
+        let o = cli(&a);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+    }
+    // No fluid: a jelly-only scene needs --material.
+    let d2 = tmpdir("surface-solid");
+    let solid = run(&d2, JELLY_3D);
+    let o = cli(&["surface", solid.to_str().expect("utf-8")]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no fluid material"), "{}", stderr(&o));
+    // 2D snapshots have no surface mesh.
+    let d3 = tmpdir("surface-2d");
+    let flat = run(&d3, WATER_2D);
+    let o = cli(&["surface", flat.to_str().expect("utf-8")]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("3D"), "{}", stderr(&o));
+}
