@@ -1,7 +1,8 @@
 # The two commands that work on a fresh Debian machine with Rust:
 #   make run    builds mpm-cli, runs the default scene (2D dam break) into out/dam_break and
 #               renders every snapshot to out/dam_break/render/frame_NNNNNN.png
-#   make test   runs the whole test suite (cargo test --workspace)
+#   make test   runs the whole test suite (cargo test --workspace --release): the release
+#               profile, so it reuses what `make run` built instead of compiling everything again
 # Both first install libhdf5-dev and pkg-config with apt-get when pkg-config cannot find HDF5
 # (with sudo unless already root).
 
@@ -24,4 +25,4 @@ run: deps
 	@echo "snapshots, run.xmf and summary.json in out/dam_break; pictures in out/dam_break/render/"
 
 test: deps
-	$(CARGO) test --workspace
+	$(CARGO) test --workspace --release
