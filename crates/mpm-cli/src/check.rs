@@ -104,15 +104,20 @@ where
     );
     let stable = s.stable_dt();
     let bound = s.dt_bound();
+    // At rest a velocity-only bound is infinite: say so instead of printing "inf s".
+    let at_start = if stable.is_finite() {
+        format!("{stable:.3e} s")
+    } else {
+        "no limit (everything at rest)".to_string()
+    };
     let dt_text = match sc.simulation.time_step {
         TimeStepDef::Adaptive { dt_max, .. } => format!(
-            "cfl · ({}) at start = {:.3e} s, so dt = {:.3e} s",
+            "cfl · ({}) at start: {at_start}, so dt = {:.3e} s",
             bound.description,
-            stable,
             stable.min(dt_max)
         ),
         TimeStepDef::Fixed { dt } => format!(
-            "stable bound {} at start = {stable:.3e} s{}",
+            "fixed dt = {dt:e} s; stable bound {} at start: {at_start}{}",
             bound.description,
             if dt > stable && bound.limits_fixed_dt {
                 ": the fixed dt is ABOVE IT"

@@ -153,6 +153,12 @@ fn check_prints_only_the_tlmpm_stages_a_scene_runs() {
     assert!(cantilever.contains("load:       \"tip\""), "{cantilever}");
     assert!(!cantilever.contains("contact"), "{cantilever}");
     assert!(!cantilever.contains("reference_update"), "{cantilever}");
+    // A beam at rest has no velocity bound: the line says so instead of "inf s".
+    assert!(
+        cantilever.contains("at start: no limit (everything at rest)"),
+        "{cantilever}"
+    );
+    assert!(!cantilever.contains("inf s"), "{cantilever}");
     let snow = plan("s.toml", TLMPM_SNOW_2D);
     assert!(snow.contains("contact — Eq. 4"), "{snow}");
     assert!(snow.contains("plastic return mapping"), "{snow}");
