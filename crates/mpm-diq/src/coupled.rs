@@ -1011,8 +1011,82 @@ where
         }
         self.time += dt;
         self.steps += 1;
+        self.push_fluid_out_of_solids();
         self.gather_particles();
         Ok(updated)
+    }
+
+    /// The outward normal `−∇m/‖∇m‖` of Eq. 36 at every solid particle (zero where the mass
+    /// gradient vanishes), with `cells` binning the solid positions in cells of 2Δx.
+    fn solid_normals(&self, cells: &CellList<D>) -> Vec<Vector<D>> {
+        let dx = Solver::spec(&self.fluid).dx;
+        let sp = self.solid.particles();
+        (0..sp.len())
+            .into_par_iter()
+            .map(|q| {
+                let mut grad = Vector::<D>::zeros();
+                cells.for_each_within(&sp.x, q, 2.0 * dx, |r, d, dist| {
+                    // d = x_r − x_q; ∇_x N(‖x − x_r‖) at x_q = N'(dist) (x_q − x_r)/dist.
+                    if dist > 0.0 {
+                        grad -= d * (sp.mass[r] * cubic_derivative(dist / dx) / (dx * dist));
+                    }
+                });
+                let norm = grad.norm();
+                if norm > 0.0 {
+                    -grad / norm
+                } else {
+                    Vector::<D>::zeros()
+                }
+            })
+            .collect()
+    }
+
+    /// IQ-MPM's particle position clamping (which §5.1 follows): a fluid particle within
+    /// 0.6 Δx of a solid particle `q` and behind it, `(x − x_q)·n_q < 0`, is inside the solid; it
+    /// moves along the normal of its nearest solid particle in steps of Δx/10, at most 20, until
+    /// it is not. The interface rows constrain normal velocities only on average over a node's
+    /// piece of interface, so without this the B1 velocity field carries fluid particles into
+    /// the solid: measured on a slab resting on water across a 2D tank, the fluid rose 0.19 m
+    /// into the 0.25 m slab within 1 s and the slab sank 2 cm.
+    fn push_fluid_out_of_solids(&mut self) {
+        if !self.has_fluid() {
+            return;
+        }
+        let dx = Solver::spec(&self.fluid).dx;
+        let sp = self.solid.particles();
+        let mut cells = CellList::default();
+        cells.build(&sp.x, 2.0 * dx);
+        let normals = self.solid_normals(&cells);
+        let reach2 = (0.6 * dx) * (0.6 * dx);
+        let inside = |x: &Vector<D>| {
+            let (mut bad, mut nearest, mut best) = (false, usize::MAX, Real::INFINITY);
+            cells.for_each_candidate_near(x, |q| {
+                let d = x - sp.x[q];
+                let r2 = d.norm_squared();
+                if r2 <= reach2 {
+                    bad |= d.dot(&normals[q]) < 0.0;
+                    if r2 < best {
+                        (best, nearest) = (r2, q);
+                    }
+                }
+            });
+            bad.then_some(nearest)
+        };
+        let domain = self.fluid.domain().clone();
+        let t = self.time;
+        self.fluid.positions_mut().par_iter_mut().for_each(|x| {
+            let Some(q) = inside(x) else {
+                return;
+            };
+            let n = normals[q];
+            for _ in 0..20 {
+                *x += n * (0.1 * dx);
+                if inside(x).is_none() {
+                    break;
+                }
+            }
+            domain.clamp(x, t, crate::fluid::CLAMP_MARGIN * dx);
+        });
     }
 
     /// Copies the parts' particles into the scene-ordered set.

@@ -448,6 +448,11 @@ where
         self.divergence = divergence;
     }
 
+    /// Positions (m), for the coupled solver's push-out of fluid particles from solids.
+    pub(crate) fn positions_mut(&mut self) -> &mut [Vector<D>] {
+        &mut self.particles.x
+    }
+
     /// Velocities, for tests and set-ups (m/s).
     pub fn velocities_mut(&mut self) -> &mut [Vector<D>] {
         &mut self.particles.v
