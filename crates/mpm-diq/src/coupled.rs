@@ -596,19 +596,9 @@ where
                     return None;
                 }
                 near.sort_unstable();
-                let mut grad = Vector::<D>::zeros();
-                solid_cells.for_each_within(&sp.x, q, 2.0 * dx, |r, d, dist| {
-                    // d = x_r − x_q; ∇_x N(‖x − x_r‖) at x_q = N'(dist) (x_q − x_r)/dist.
-                    if dist > 0.0 {
-                        grad -= d * (sp.mass[r] * cubic_derivative(dist / dx) / (dx * dist));
-                    }
-                });
-                let norm = grad.norm();
-                if norm.is_nan() || norm <= 0.0 {
-                    return None;
-                }
+                let normal = self.solid_normal(&solid_cells, q)?;
                 let j = Dim::<D>::det(&sp.def_grad_of(q)).max(0.0);
-                Some((-grad / norm, cross_section::<D>(j * sp.volume0[q]), near))
+                Some((normal, cross_section::<D>(j * sp.volume0[q]), near))
             })
             .collect();
         out.fluid_start.push(0);
@@ -1016,27 +1006,29 @@ where
         Ok(updated)
     }
 
-    /// The outward normal `−∇m/‖∇m‖` of Eq. 36 at every solid particle (zero where the mass
-    /// gradient vanishes), with `cells` binning the solid positions in cells of 2Δx.
-    fn solid_normals(&self, cells: &CellList<D>) -> Vec<Vector<D>> {
+    /// The outward normal `−∇m/‖∇m‖` of Eq. 36 at solid particle `q`, with `cells` binning the
+    /// solid positions in cells of 2Δx; `None` where the mass gradient vanishes.
+    fn solid_normal(&self, cells: &CellList<D>, q: usize) -> Option<Vector<D>> {
         let dx = Solver::spec(&self.fluid).dx;
         let sp = self.solid.particles();
-        (0..sp.len())
+        let mut grad = Vector::<D>::zeros();
+        cells.for_each_within(&sp.x, q, 2.0 * dx, |r, d, dist| {
+            // d = x_r − x_q; ∇_x N(‖x − x_r‖) at x_q = N'(dist) (x_q − x_r)/dist.
+            if dist > 0.0 {
+                grad -= d * (sp.mass[r] * cubic_derivative(dist / dx) / (dx * dist));
+            }
+        });
+        let norm = grad.norm();
+        (norm > 0.0).then(|| -grad / norm)
+    }
+
+    /// [`Self::solid_normal`] at every solid particle, zero where it does not exist.
+    fn solid_normals(&self, cells: &CellList<D>) -> Vec<Vector<D>> {
+        (0..self.solid.particles().len())
             .into_par_iter()
             .map(|q| {
-                let mut grad = Vector::<D>::zeros();
-                cells.for_each_within(&sp.x, q, 2.0 * dx, |r, d, dist| {
-                    // d = x_r − x_q; ∇_x N(‖x − x_r‖) at x_q = N'(dist) (x_q − x_r)/dist.
-                    if dist > 0.0 {
-                        grad -= d * (sp.mass[r] * cubic_derivative(dist / dx) / (dx * dist));
-                    }
-                });
-                let norm = grad.norm();
-                if norm > 0.0 {
-                    -grad / norm
-                } else {
-                    Vector::<D>::zeros()
-                }
+                self.solid_normal(cells, q)
+                    .unwrap_or_else(Vector::<D>::zeros)
             })
             .collect()
     }
