@@ -23,7 +23,7 @@ pub struct WallPoint<const D: usize> {
 pub struct WallSample<const D: usize> {
     /// The node anchoring the boundary pressure `y` (node-centred B0 on the boundary).
     pub node: usize,
-    /// Which wall (`2·axis + side`), or collider (`2D + index`).
+    /// Which wall (`2·axis + side`), or which piece of a collider (see [`collider_face`]).
     pub face: usize,
     /// The cell the point lies in (its `2^D` corners carry `w_c(x_q)`).
     pub cell: [usize; D],
@@ -106,6 +106,23 @@ impl<const D: usize> Domain<D> {
             let m = c % self.cell_dims[a];
             c /= self.cell_dims[a];
             m
+        })
+    }
+
+    /// The cells of the `3^D` block around cell `m` (itself included) that exist on the grid.
+    pub fn neighbour_cells(&self, m: [usize; D]) -> impl Iterator<Item = [usize; D]> + '_ {
+        (0..3usize.pow(D as u32)).filter_map(move |o| {
+            let mut rest = o;
+            let mut nm = [0usize; D];
+            for a in 0..D {
+                let k = m[a] as i64 + (rest % 3) as i64 - 1;
+                rest /= 3;
+                if k < 0 || k >= self.cell_dims[a] as i64 {
+                    return None;
+                }
+                nm[a] = k as usize;
+            }
+            Some(nm)
         })
     }
 
@@ -271,13 +288,15 @@ impl<const D: usize> Domain<D> {
                     self.spec.origin[a] + (m[a] as Real + (k as Real + 0.5) / 3.0) * dx
                 });
                 let (phi, n) = collider.shape.signed_distance(&(x - shift));
-                if phi.abs() <= 0.5 * h && n.norm() > 0.0 {
+                // The band is closed up to round-off: a surface on a cell face lies exactly
+                // h/2 from the sub-cell points next to it.
+                if phi.abs() <= 0.5 * h * (1.0 + 1e-9) && n.norm() > 0.0 {
                     // The collider's normal points into the fluid; the fluid's points out.
                     let normal = -n;
                     let on_surface = x - n * phi;
                     out.push(WallSample {
                         node: self.nearest_node(&on_surface),
-                        face: 2 * D + ci,
+                        face: collider_face::<D>(ci, &normal),
                         cell: *m,
                         point: WallPoint {
                             x: on_surface,
@@ -313,6 +332,25 @@ impl<const D: usize> Domain<D> {
             .iter()
             .all(|c| c.contact.kind == ContactKind::Slip && c.contact.friction == 0.0)
     }
+}
+
+/// The boundary-pressure piece of a point of collider `index` with outward fluid normal `n`:
+/// `2D (1 + index) + 2·axis + side`, with the axis and sign of `n`'s largest component. A node
+/// where two faces of a collider meet (a box's corner) gets one boundary pressure per face, as
+/// a wall corner does: with a single one, the row holds only the sum of the two normal
+/// velocities, and water at rest around a submerged box flowed in at its corners (measured at
+/// Δx = 1/32 m: 0.12 m/s after 1 s; with one row per face, 2e-8 m/s).
+pub fn collider_face<const D: usize>(index: usize, n: &Vector<D>) -> usize {
+    2 * D * (1 + index) + normal_class(n)
+}
+
+/// `2·axis + side` of the largest component of `n` (side 1 when it is positive): which of the
+/// `2D` axis directions `n` is closest to.
+pub fn normal_class<const D: usize>(n: &Vector<D>) -> usize {
+    let a = (0..D)
+        .max_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs()))
+        .unwrap_or(0);
+    2 * a + usize::from(n[a] > 0.0)
 }
 
 /// Linear B-spline weights and gradients (1/m) of the `2^D` corners of a cell at fractions `f`
