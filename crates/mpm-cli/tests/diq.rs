@@ -10,17 +10,7 @@ use mpm_io::read_file;
 
 #[test]
 fn dam_break_writes_pressure_divergence_and_volume() {
-    let d = tmpdir("diq-run");
-    let scene = write(&d, "s.toml", DIQ_2D);
-    let out = d.join("out");
-    let o = cli(&[
-        "run",
-        &scene.to_string_lossy(),
-        "--out",
-        &out.to_string_lossy(),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = run_scene(&tmpdir("diq-run"), "s.toml", DIQ_2D);
     let last = read_file(&numbered_files(&out, "snap_").last().expect("snapshot").1).unwrap();
     let p = f64_field(&last, "pressure");
     let div = f64_field(&last, "divergence");
@@ -96,5 +86,127 @@ fn capped_pressure_cg_stops_with_exit_code_3() {
     for (_, path) in numbered_files(&out, "snap_") {
         let s = read_file(&path).unwrap();
         assert!(f64_field(&s, "x").iter().all(|x| x.is_finite()));
+    }
+}
+
+/// The stage lines of `check` output: the numbered lines after "stages each step:".
+fn stage_names(text: &str) -> Vec<String> {
+    text.lines()
+        .skip_while(|l| !l.starts_with("stages each step:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().nth(1).map(str::to_string))
+        .collect()
+}
+
+fn plan_of(text: &str) -> Vec<String> {
+    let d = tmpdir("diq-plan");
+    let scene = write(&d, "s.toml", text);
+    let o = cli(&["check", &scene.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    stage_names(&stdout(&o))
+}
+
+#[test]
+fn each_diq_scene_plans_only_the_stages_it_needs() {
+    // Fluid only: no solid, interface or contact stage.
+    let fluid = plan_of(DIQ_2D);
+    for absent in [
+        "coupling",
+        "contact",
+        "external_forces",
+        "reference",
+        "commit",
+    ] {
+        assert!(!fluid.iter().any(|s| s == absent), "{absent} in {fluid:?}");
+    }
+    assert!(
+        fluid.iter().any(|s| s == "position_correction"),
+        "{fluid:?}"
+    );
+    // Fluid and a solid: the solid's Newton solve, contact and the coupled system.
+    let coupled = plan_of(DIQ_COUPLED_2D);
+    for present in [
+        "sort",
+        "contact",
+        "solve",
+        "coupling",
+        "position_correction",
+    ] {
+        assert!(
+            coupled.iter().any(|s| s == present),
+            "{present} not in {coupled:?}"
+        );
+    }
+    // A solid alone: no fluid stage.
+    let solid_only = DIQ_COUPLED_2D.replace(
+        "[[bodies]]\nname = \"water\"\nmaterial = \"water\"\nshape = \"box\"\nmin = [0.03125, 0.03125]\nmax = [0.46875, 0.1875]\n",
+        "",
+    );
+    assert_ne!(solid_only, DIQ_COUPLED_2D);
+    let solid = plan_of(&solid_only);
+    for absent in ["sort", "grid_update", "position_correction"] {
+        assert!(!solid.iter().any(|s| s == absent), "{absent} in {solid:?}");
+    }
+    assert!(solid.iter().any(|s| s == "solve"), "{solid:?}");
+}
+
+#[test]
+fn a_block_dropped_into_water_is_slowed_and_no_water_enters_it() {
+    let out = run_scene(&tmpdir("diq-coupled-run"), "s.toml", DIQ_COUPLED_2D);
+    let last = read_file(&numbered_files(&out, "snap_").last().expect("snapshot").1).unwrap();
+    let (x, v) = (f64_field(&last, "x"), f64_field(&last, "v"));
+    let n = x.len() / 2;
+    // The block is the last body: 4 × 4 cells at 2 × 2 particles per cell.
+    let block = n - 64..n;
+    let t = last.header.time;
+    // Free fall from rest for t = 0.3 s would reach g t = 2.94 m/s; the block hits the water
+    // (0.125 m below it) after about 0.16 s, and the water slows it.
+    let vy: f64 = block.clone().map(|p| v[2 * p + 1]).sum::<f64>() / 64.0;
+    assert!((t - 0.3).abs() < 1e-9, "t = {t}");
+    assert!(vy > -0.6 * 9.81 * t, "block mean vy {vy} m/s at t = {t} s");
+    // No water inside the block: its particles' bounding box shrunk by half a cell holds no
+    // fluid particle.
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in block.clone() {
+        for a in 0..2 {
+            lo[a] = lo[a].min(x[2 * p + a]);
+            hi[a] = hi[a].max(x[2 * p + a]);
+        }
+    }
+    let h = 0.5 * 0.03125;
+    let inside = (0..n - 64)
+        .filter(|&p| (0..2).all(|a| x[2 * p + a] > lo[a] + h && x[2 * p + a] < hi[a] - h))
+        .count();
+    assert_eq!(inside, 0, "water inside the block box {lo:?} .. {hi:?}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let solve = &summary["solves"]["coupled_pressure"];
+    assert_eq!(solve["steps"], 60, "{summary}");
+    assert!(solve["final_residual"]["max"].as_f64().unwrap() <= 1e-8);
+}
+
+#[test]
+fn solid_tables_are_checked_in_diq_scenes() {
+    let d = tmpdir("diq-solid-keys");
+    let cases = [
+        (
+            DIQ_2D.replace("[output]", "[tlmpm]\ncontact = true\n\n[output]"),
+            "`tlmpm`: does not apply without a solid material",
+        ),
+        (
+            DIQ_COUPLED_2D.replace("[output]", "[tlmpm]\nintegrator = \"explicit\"\n\n[output]"),
+            "`tlmpm.integrator`",
+        ),
+        (
+            DIQ_COUPLED_2D.replace("[output]", "[diq]\ninterface_radius = 0.0\n\n[output]"),
+            "`diq.interface_radius`: must lie in (0, 2]",
+        ),
+    ];
+    for (i, (text, message)) in cases.iter().enumerate() {
+        let scene = write(&d, &format!("s{i}.toml"), text);
+        let o = cli(&["check", &scene.to_string_lossy()]);
+        assert_eq!(o.status.code(), Some(2), "case {i}: {}", stderr(&o));
+        assert!(stderr(&o).contains(message), "case {i}: {}", stderr(&o));
     }
 }

@@ -142,6 +142,13 @@ fn resume_diq_2d_is_bitwise() {
 }
 
 #[test]
+fn resume_diq_coupled_2d_is_bitwise() {
+    // The DIQ coupling: a block falls into water across the checkpoint; the solids' reference
+    // positions, the solid pressures and the fluid's pressure and divergence are restored.
+    check_resume("diq-coupled", DIQ_COUPLED_2D, 30, 60);
+}
+
+#[test]
 fn resuming_from_the_final_checkpoint_writes_nothing_twice() {
     let d = tmpdir("resume-final");
     let scene = write(&d, "s.toml", SNOW_2D);

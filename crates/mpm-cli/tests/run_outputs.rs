@@ -9,25 +9,6 @@ use mpm_cli::run::numbered_files;
 use mpm_io::{read_file, Data, FileKind};
 use std::path::Path;
 
-fn run_scene(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
-    let p = write(dir, name, text);
-    let out = dir.join(format!("{name}.out"));
-    let o = cli(&[
-        "run",
-        &p.to_string_lossy(),
-        "--out",
-        &out.to_string_lossy(),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(
-        stdout(&o).is_empty(),
-        "--quiet prints nothing: {}",
-        stdout(&o)
-    );
-    out
-}
-
 /// Name, unit, shape after N, and whether integer.
 type FieldLayout = (String, String, Vec<usize>, bool);
 
@@ -356,7 +337,7 @@ fn example_scenes_check_and_start() {
         let out = run_scene(&d, &name, &short.join("\n"));
         assert_eq!(numbered_files(&out, "snap_").len(), 4, "{name}");
     }
-    assert_eq!(count, 21, "the twenty-one example scenes");
+    assert_eq!(count, 22, "the twenty-two example scenes");
 }
 
 #[test]

@@ -1329,6 +1329,12 @@ where
             components: 1,
             derived: true,
         });
+        fields.push(FieldInfo {
+            name: "divergence",
+            unit: "1/s",
+            components: 1,
+            derived: true,
+        });
         fields
     }
 
@@ -1339,6 +1345,11 @@ where
     fn output(&self, name: &str) -> Vec<Column> {
         match name {
             "pressure" => vec![Column::scalars("pressure", "Pa", &self.scene_pressure())],
+            "divergence" => vec![Column::scalars(
+                "divergence",
+                "1/s",
+                &self.scene_divergence(),
+            )],
             _ => columns::particle_column(&self.particles, name),
         }
     }

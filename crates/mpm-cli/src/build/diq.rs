@@ -1,5 +1,6 @@
 //! The build module of `solver = "diq"`: DIQ-MPM's incompressible fluid (`mpm-diq`), with walls
-//! and colliders as free-slip boundaries, and the scene keys of its set-up errors.
+//! and colliders as free-slip boundaries, coupled to mixed TLMPM solids when the scene has
+//! solid materials, and the scene keys of its set-up errors.
 
 use super::{
     boundaries, on_instability, setup_error, time_step_policy, unused_materials, vector, Built,
@@ -7,16 +8,18 @@ use super::{
 };
 use crate::error::SceneError;
 use crate::scene::{DiqScene, LoadedScene, ModelDef};
-use mpm_core::{Dim, DimOps};
-use mpm_diq::{DiqFluid, DiqParams};
+use mpm_core::{Dim, DimOps, Kernel, Solver};
+use mpm_diq::{DiqCoupled, DiqFluid, DiqParams, SolidParams};
+use mpm_tlmpm::TlmpmParams;
 
 /// The scene keys of the DIQ solver's parameter names (`SetupError::InvalidParameter`).
-const PARAMETER_KEYS: [(&str, &str); 5] = [
+const PARAMETER_KEYS: [(&str, &str); 6] = [
     ("grid", "grid.max"),
     ("gravity", "simulation.gravity"),
     ("pressure.rel_tol", "diq.rel_tol"),
     ("pressure.max_iterations", "diq.max_iterations"),
     ("mass", "bodies"),
+    ("lambda", "materials"),
 ];
 
 /// Builds the DIQ fluid solver from the sampled scene, with the start-up warnings (unused
@@ -64,10 +67,29 @@ where
         ],
     };
     let fail = |e| setup_error(scene, &bodies, e, &keys);
-    let solver =
-        DiqFluid::new(spec, params, materials, boundaries::<D>(scene), particles).map_err(fail)?;
+    let solver: Box<dyn Solver<D>> = match &own.solids {
+        None => Box::new(
+            DiqFluid::new(spec, params, materials, boundaries::<D>(scene), particles)
+                .map_err(fail)?,
+        ),
+        Some(solids) => {
+            let solid = SolidParams {
+                interface_radius: own.diq.interface_radius,
+                tlmpm: TlmpmParams {
+                    kernel: Kernel::Quadratic,
+                    ..super::tlmpm::params::<D>(scene, solids, &spec)
+                },
+                implicit: super::tlmpm::implicit_params(&solids.tlmpm),
+            };
+            let boundaries = boundaries::<D>(scene);
+            Box::new(
+                DiqCoupled::new(spec, params, solid, materials, boundaries, particles)
+                    .map_err(fail)?,
+            )
+        }
+    };
     Ok(Built {
-        solver: Box::new(solver),
+        solver,
         bodies,
         warnings,
         notes: Vec::new(),

@@ -90,7 +90,7 @@ pub fn params<const D: usize>(
 }
 
 /// Newton and linear-solver parameters of `[tlmpm]`.
-fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
+pub(super) fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
     let d = NewtonParams::default();
     ImplicitParams {
         newton: NewtonParams {

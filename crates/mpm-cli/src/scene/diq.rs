@@ -1,11 +1,15 @@
-//! The scene module of `solver = "diq"` (DIQ-MPM's incompressible fluid, `mpm-diq`): its table
-//! `[diq]`, and the checks of the common tables it needs (fluid materials only; walls and
-//! colliders free slip without friction; APIC transfer).
+//! The scene module of `solver = "diq"` (DIQ-MPM, `mpm-diq`): its table `[diq]`, the solid
+//! tables `[tlmpm]` and `[[fixed]]` of TLMPM when the scene has solid materials (the DIQ
+//! coupling), and the checks of the common tables it needs (walls and colliders free slip
+//! without friction; APIC transfer; static colliders with solids).
 
 use super::bodies::BodyDef;
 use super::boundaries::BoundaryDef;
 use super::materials::ModelDef;
 use super::simulation::TransferKind;
+use super::tlmpm::{
+    resolve_solid_tables, IntegratorKind, RawFixed, RawTlmpm, RawTlmpmTables, TlmpmScene,
+};
 use super::{Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::boundary::ContactKind;
@@ -18,6 +22,9 @@ use serde::{Deserialize, Serialize};
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawDiqTables {
     diq: Option<RawDiq>,
+    tlmpm: Option<RawTlmpm>,
+    #[serde(default)]
+    fixed: Vec<RawFixed>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -28,6 +35,7 @@ struct RawDiq {
     max_iterations: Option<u32>,
     position_correction: Option<bool>,
     gradient_quadrature: Option<GradientQuadrature>,
+    interface_radius: Option<f64>,
 }
 
 /// `[diq]`: the DIQ fluid solver's settings, every default filled in.
@@ -44,6 +52,10 @@ pub struct DiqDef {
     pub position_correction: bool,
     /// Quadrature of the fluid gradient operator: `"cell_centre"` (default) or `"particles"`.
     pub gradient_quadrature: GradientQuadrature,
+    /// Search radius of the interface quadrature points (solid particles with a fluid particle
+    /// this close), as a fraction of Δx (dimensionless; diq-mpm §4.6: 0.5). Read only when the
+    /// scene has solids.
+    pub interface_radius: f64,
 }
 
 impl DiqDef {
@@ -63,22 +75,35 @@ impl DiqDef {
 pub struct DiqScene {
     /// `[diq]`, every default filled in (also when the scene has no such table).
     pub diq: DiqDef,
+    /// The solids' `[tlmpm]` and `[[fixed]]` when the scene has solid materials: they run on
+    /// the implicit Newton TLMPM with quadratic B-splines (the paper's B2), coupled to the
+    /// fluid by dual interface quadrature.
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub solids: Option<TlmpmScene>,
 }
 
 impl SolverTables for DiqScene {
-    const TABLES: &'static [&'static str] = &["diq"];
+    const TABLES: &'static [&'static str] = &["diq", "tlmpm", "fixed"];
     const KEYS: &'static [&'static str] = &[];
     const PRINTED_LAST: bool = true;
     const FIELDS: &'static [&'static str] = &["divergence"];
     type Raw = RawDiqTables;
 
     fn resolve(c: &mut Checker<'_>, raw: RawDiqTables, common: Common<'_>) -> Self {
-        resolve_diq(c, &raw, common)
+        resolve_diq(c, raw, common)
     }
 
-    /// Only the always-present columns: an incompressible particle has no deformation state.
-    fn columns(&self, _materials: Columns, _bodies: &[BodyDef]) -> Columns {
-        Columns::default()
+    /// Only the always-present columns for a fluid (an incompressible particle has no
+    /// deformation state); those of the materials (the solids' F) with solids.
+    fn columns(&self, materials: Columns, _bodies: &[BodyDef]) -> Columns {
+        if self.solids.is_some() {
+            Columns {
+                jacobian: false,
+                ..materials
+            }
+        } else {
+            Columns::default()
+        }
     }
 }
 
@@ -92,10 +117,29 @@ impl Scene {
     }
 }
 
-/// Resolves `[diq]` and checks that the common tables fit the solver.
-fn resolve_diq(c: &mut Checker<'_>, raw: &RawDiqTables, common: Common<'_>) -> DiqScene {
+/// Resolves `[diq]`, the solid tables when the scene has solids, and checks that the common
+/// tables fit the solver.
+fn resolve_diq(c: &mut Checker<'_>, raw: RawDiqTables, common: Common<'_>) -> DiqScene {
     let d = PressureParams::default();
     check_common_tables(c, common.simulation.transfer, common.boundaries);
+    let has_solid = common
+        .materials
+        .iter()
+        .any(|m| !matches!(m.model, ModelDef::Tait(_)));
+    let solids = if has_solid {
+        let tables = RawTlmpmTables::solid_tables(raw.tlmpm, raw.fixed);
+        let solids = resolve_solid_tables(c, &tables, &common, "diq");
+        check_solid_tables(c, &solids, common.boundaries);
+        Some(solids)
+    } else {
+        for (table, present) in [
+            ("tlmpm", raw.tlmpm.is_some()),
+            ("fixed", !raw.fixed.is_empty()),
+        ] {
+            c.not_applicable(table, present, "without a solid material");
+        }
+        None
+    };
     if common.grid.kernel != Kernel::Linear {
         c.err(
             "grid.kernel",
@@ -103,19 +147,15 @@ fn resolve_diq(c: &mut Checker<'_>, raw: &RawDiqTables, common: Common<'_>) -> D
              B1B0, diq-mpm §4.5): set kernel = \"linear\"",
         );
     }
-    for (i, m) in common.materials.iter().enumerate() {
-        if !matches!(m.model, ModelDef::Tait(_)) {
-            c.err(
-                &format!("materials[{i}].model"),
-                format!(
-                    "material \"{}\" is a solid; solver \"diq\" simulates incompressible fluids \
-                     only (solids come with the DIQ coupling)",
-                    m.name
-                ),
-            );
-        }
-    }
     let t = raw.diq.as_ref();
+    let interface_radius = t.and_then(|t| t.interface_radius);
+    if !has_solid {
+        c.not_applicable(
+            "diq.interface_radius",
+            interface_radius.is_some(),
+            "without a solid material",
+        );
+    }
     let max_iterations = t.and_then(|t| t.max_iterations).unwrap_or(d.max_iterations);
     if max_iterations == 0 {
         c.err("diq.max_iterations", "must be at least 1");
@@ -132,7 +172,44 @@ fn resolve_diq(c: &mut Checker<'_>, raw: &RawDiqTables, common: Common<'_>) -> D
             max_iterations,
             position_correction: t.and_then(|t| t.position_correction).unwrap_or(true),
             gradient_quadrature: t.and_then(|t| t.gradient_quadrature).unwrap_or_default(),
+            interface_radius: c.num(
+                "diq.interface_radius",
+                interface_radius.unwrap_or(0.5),
+                |x| x > 0.0 && x <= 2.0,
+                "must lie in (0, 2] (a fraction of dx)",
+            ),
         },
+        solids,
+    }
+}
+
+/// What the DIQ coupling does not take from the TLMPM tables: the explicit integrator (the
+/// coupling drives the Newton solve), A-ULMPM (not coupled yet, diq-mpm §5.4), and moving
+/// colliders (the solids' penalty obstacles are static).
+fn check_solid_tables(c: &mut Checker<'_>, solids: &TlmpmScene, boundaries: &[BoundaryDef]) {
+    if solids.tlmpm.integrator != IntegratorKind::Implicit {
+        c.err(
+            "tlmpm.integrator",
+            "the DIQ coupling drives the implicit Newton TLMPM: use integrator = \"implicit\"",
+        );
+    }
+    if solids.tlmpm.reference_update.is_some() {
+        c.err(
+            "tlmpm.reference_update",
+            "A-ULMPM solids are not coupled to the DIQ fluid yet (diq-mpm §5.4)",
+        );
+    }
+    for (i, b) in boundaries.iter().enumerate() {
+        if b.velocity
+            .as_ref()
+            .is_some_and(|v| v.iter().any(|&x| x != 0.0))
+        {
+            c.err(
+                &format!("boundaries[{i}].velocity"),
+                "with solids, solver \"diq\" has static colliders only (the solids meet \
+                 them by penalty contact)",
+            );
+        }
     }
 }
 

@@ -112,7 +112,11 @@ fn another_solvers_tables_and_keys_are_errors_at_their_place() {
         (p[1].0.as_str(), p[1].1),
         ("loads", line_of(&text, "[[loads]]"))
     );
-    assert!(p[0]
+    // DIQ scenes with solids read `[tlmpm]` too; `[[loads]]` is TLMPM's alone.
+    assert!(p[0].2.ends_with(
+        "with solver \"explicit\" (only with simulation.solver = \"tlmpm\" or \"diq\")"
+    ));
+    assert!(p[1]
         .2
         .ends_with("with solver \"explicit\" (only with simulation.solver = \"tlmpm\")"));
 }

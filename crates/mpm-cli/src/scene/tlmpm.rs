@@ -38,16 +38,27 @@ pub enum LinearSolverKind {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawTlmpmTables {
-    tlmpm: Option<RawTlmpm>,
+    pub(crate) tlmpm: Option<RawTlmpm>,
     #[serde(default)]
-    fixed: Vec<RawFixed>,
+    pub(crate) fixed: Vec<RawFixed>,
     #[serde(default)]
     loads: Vec<RawLoad>,
 }
 
+impl RawTlmpmTables {
+    /// `[tlmpm]` and `[[fixed]]` as another solver's scene holds them (no `[[loads]]`).
+    pub(crate) fn solid_tables(tlmpm: Option<RawTlmpm>, fixed: Vec<RawFixed>) -> Self {
+        Self {
+            tlmpm,
+            fixed,
+            loads: Vec::new(),
+        }
+    }
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawTlmpm {
+pub(crate) struct RawTlmpm {
     integrator: Option<IntegratorKind>,
     linear_solver: Option<LinearSolverKind>,
     cg_max_iterations: Option<u32>,
@@ -70,7 +81,7 @@ struct RawReferenceUpdate {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawFixed {
+pub(crate) struct RawFixed {
     min: Vec<f64>,
     max: Vec<f64>,
     axes: Option<Vec<bool>>,
@@ -208,16 +219,33 @@ fn resolve_box(c: &mut Checker<'_>, key: &str, min: &[f64], max: &[f64], d: usiz
 /// Resolves `[tlmpm]`, `[[fixed]]` and `[[loads]]`, and checks that the common tables fit the
 /// solver.
 fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) -> TlmpmScene {
+    check_common_tables(c, common.simulation.transfer, common.boundaries);
+    for (i, m) in common.materials.iter().enumerate() {
+        if matches!(m.model, ModelDef::Tait(_)) {
+            c.err(
+                &format!("materials[{i}].model"),
+                format!(
+                    "material \"{}\" is a fluid; solver \"tlmpm\" simulates solids only",
+                    m.name
+                ),
+            );
+        }
+    }
+    resolve_solid_tables(c, raw, &common, "tlmpm")
+}
+
+/// Resolves the TLMPM solid tables `[tlmpm]`, `[[fixed]]` and `[[loads]]` of a scene of solver
+/// `solver` ("tlmpm", or "diq" for the solids of the DIQ coupling), with the solid materials'
+/// need for A-ULMPM; fluid materials are left to the caller.
+pub(crate) fn resolve_solid_tables(
+    c: &mut Checker<'_>,
+    raw: &RawTlmpmTables,
+    common: &Common<'_>,
+    solver: &str,
+) -> TlmpmScene {
     let newton = NewtonParams::default();
-    let Common {
-        simulation,
-        grid,
-        materials,
-        boundaries,
-        ..
-    } = common;
-    let (d, dx) = (simulation.dim, grid.dx);
-    check_common_tables(c, simulation.transfer, boundaries);
+    let (materials, boundaries) = (common.materials, common.boundaries);
+    let (d, dx) = (common.simulation.dim, common.grid.dx);
     let t = raw.tlmpm.as_ref();
     let integrator = t
         .and_then(|t| t.integrator)
@@ -346,23 +374,14 @@ fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) 
             | ModelDef::Hencky(s)
             | ModelDef::LinearElastic(s)
             | ModelDef::StableNeoHookean(s) => !matches!(s.plasticity, PlasticityDef::None),
-            ModelDef::Tait(_) => {
-                c.err(
-                    &format!("materials[{i}].model"),
-                    format!(
-                        "material \"{}\" is a fluid; solver \"tlmpm\" simulates solids only",
-                        m.name
-                    ),
-                );
-                false
-            }
+            ModelDef::Tait(_) => false,
         };
         if plastic && reference_update.is_none() {
             c.err(
                 &format!("materials[{i}].plasticity"),
                 format!(
                     "plastic material \"{}\" needs A-ULMPM reference updates with solver \
-                     \"tlmpm\": add [tlmpm.reference_update] (e.g. epsilon = 0.01, eta = 0.01)",
+                     \"{solver}\": add [tlmpm.reference_update] (e.g. epsilon = 0.01, eta = 0.01)",
                     m.name
                 ),
             );

@@ -122,6 +122,27 @@ pub fn cli(args: &[&str]) -> Output {
 }
 
 /// Stderr as text.
+/// Writes scene `text` as `dir/name`, runs it with `--quiet` into `dir/name.out` and returns
+/// that directory; the run must succeed and print nothing.
+pub fn run_scene(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = write(dir, name, text);
+    let out = dir.join(format!("{name}.out"));
+    let o = cli(&[
+        "run",
+        &p.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stdout(&o).is_empty(),
+        "--quiet prints nothing: {}",
+        stdout(&o)
+    );
+    out
+}
+
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -200,6 +221,65 @@ thickness = 1
 [output]
 interval_steps = 20
 fields = ["x", "v", "pressure", "divergence"]
+
+[checkpoint]
+interval_steps = 30
+keep = 10
+"#;
+
+/// A small 2D DIQ coupling scene: an elastic block (half the water's density) dropped into a
+/// tank of water, with checkpoints.
+pub const DIQ_COUPLED_2D: &str = r#"
+[simulation]
+dim = 2
+solver = "diq"
+steps = 60
+cfl = 0.4
+dt_max = 5e-3
+gravity = [0.0, -9.81]
+
+[grid]
+min = [0.0, 0.0]
+max = [0.5, 0.5]
+dx = 0.03125
+kernel = "linear"
+
+[[materials]]
+name = "water"
+model = "tait"
+density = 1000.0
+bulk_modulus = 2e6
+gamma = 7.0
+
+[[materials]]
+name = "block"
+model = "neo_hookean"
+E = 1e5
+nu = 0.3
+density = 500.0
+
+[[bodies]]
+name = "water"
+material = "water"
+shape = "box"
+min = [0.03125, 0.03125]
+max = [0.46875, 0.1875]
+
+[[bodies]]
+name = "block"
+material = "block"
+shape = "box"
+min = [0.1875, 0.3125]
+max = [0.3125, 0.4375]
+
+[[boundaries]]
+type = "walls"
+contact = "slip"
+thickness = 1
+
+[output]
+interval_steps = 20
+fields = ["x", "v", "pressure", "F"]
 
 [checkpoint]
 interval_steps = 30
