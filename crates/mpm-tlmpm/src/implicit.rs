@@ -51,6 +51,7 @@ struct SparseSystem {
 struct ObjectiveWork<const D: usize> {
     def_grad: Vec<Matrix<D>>,
     stress: Vec<Matrix<D>>,
+    stress_scale: Vec<Real>,
     particle: Vec<Real>,
     magnitude: Vec<Real>,
     tensors: Vec<Real>,
@@ -214,11 +215,13 @@ where
         );
         o.stress.resize(np, Matrix::<D>::zeros());
         pot.law.weighted_stresses(&o.def_grad, &mut o.stress);
+        o.stress_scale.resize(np, 0.0);
+        pot.law.stress_scales(&o.def_grad, &mut o.stress_scale);
         ws.probe_residual.resize(nn, Vector::<D>::zeros());
         o.magnitude.resize(nn, 0.0);
         pot.gradient(
             &core.displacement,
-            &o.stress,
+            (&o.stress, &o.stress_scale),
             &mut ws.probe_residual,
             &mut o.magnitude,
         );
@@ -577,10 +580,17 @@ where
         self.pot
             .law
             .weighted_stresses(&self.ws.def_grad, &mut self.ws.stress);
+        self.ws.stress_scale.resize(n, 0.0);
+        self.pot
+            .law
+            .stress_scales(&self.ws.def_grad, &mut self.ws.stress_scale);
         self.ws.magnitude.resize(u.len(), 0.0);
-        let scale = self
-            .pot
-            .gradient(u, &self.ws.stress, out, &mut self.ws.magnitude);
+        let scale = self.pot.gradient(
+            u,
+            (&self.ws.stress, &self.ws.stress_scale),
+            out,
+            &mut self.ws.magnitude,
+        );
         self.times.gradient += t.elapsed();
         scale
     }

@@ -47,6 +47,10 @@ pub(crate) struct Potential<'a, const D: usize> {
     pub inv_dt2: Real,
 }
 
+/// The relative change of F whose stress [`Constitutive::stress_scales`] takes as the rounding
+/// scale of the stress (dimensionless).
+const STIFFNESS_ROUNDOFF: Real = 1e-2;
+
 /// Number of entries of one particle's elasticity tensor, `D⁴`.
 pub(crate) const fn tensor_len(d: usize) -> usize {
     d * d * d * d
@@ -144,6 +148,20 @@ where
         }
     }
 
+    /// The rounding scale of each particle's weighted stress at `f` (N·m):
+    /// `STIFFNESS_ROUNDOFF · V⁰_p (2μ + λ)_p ‖F_p‖`. Near F = I the stress is a difference of
+    /// terms of size `V⁰ (2μ + λ) ‖F‖`, so its rounding error is that times a few machine
+    /// epsilons however small the stress: a 1 GPa solid at rest has residual forces of about
+    /// 1e-8 N that no Newton iteration can remove. Times Newton's round-off fraction (1e-13 by
+    /// default), this scale is about 4 ulps of those terms.
+    pub fn stress_scales(&self, f: &[Matrix<D>], out: &mut [Real]) {
+        out.par_iter_mut().enumerate().for_each(|(p, s)| {
+            let lame = self.model(p).lame();
+            let stiffness = 2.0 * lame.mu + lame.lambda.abs();
+            *s = STIFFNESS_ROUNDOFF * self.volume0[p] * stiffness * self.elastic(p, &f[p]).norm();
+        });
+    }
+
     /// `∂Ψ_p/∂G` (N·m) for every particle at `f`.
     pub fn weighted_stresses(&self, f: &[Matrix<D>], out: &mut [Matrix<D>]) {
         out.par_iter_mut().enumerate().for_each(|(p, s)| {
@@ -209,7 +227,7 @@ where
     pub fn gradient(
         &self,
         u: &[Vector<D>],
-        stress: &[Matrix<D>],
+        (stress, stress_scale): (&[Matrix<D>], &[Real]),
         out: &mut [Vector<D>],
         magnitude: &mut [Real],
     ) -> Real {
@@ -223,9 +241,21 @@ where
                 let (fint, fmag) = internal_force(self.reference, stress, i);
                 *r = (inertia - fint - self.external[i]).component_mul(&self.constraints.mask[i]);
                 // The inertia term is a difference of nearly equal vectors at small dt: its
-                // rounding error scales with the magnitudes of both, not with their difference.
-                *mag =
-                    (u[i].norm() + self.target[i].norm()) * scale + self.external[i].norm() + fmag;
+                // rounding error scales with the magnitudes of both, not with their difference;
+                // the internal force's with the stiffness (`Constitutive::stress_scales`).
+                let stiff: Real = self
+                    .reference
+                    .incidence(i)
+                    .iter()
+                    .map(|&(p, k)| {
+                        stress_scale[p as usize]
+                            * self.reference.slot(p as usize, k as usize).1.norm()
+                    })
+                    .sum();
+                *mag = (u[i].norm() + self.target[i].norm()) * scale
+                    + self.external[i].norm()
+                    + fmag
+                    + stiff;
             });
         magnitude.iter().map(|m| m * m).sum::<Real>().sqrt()
     }

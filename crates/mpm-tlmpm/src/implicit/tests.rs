@@ -139,8 +139,10 @@ where
         let mut s = vec![Matrix::<D>::zeros(); n];
         self.law().weighted_stresses(&f, &mut s);
         let mut g = vec![Vector::<D>::zeros(); u.len()];
+        // The rounding scales only enter the magnitudes, which this gradient discards.
+        let scales = vec![0.0; n];
         self.potential()
-            .gradient(u, &s, &mut g, &mut vec![0.0; u.len()]);
+            .gradient(u, (&s, &scales), &mut g, &mut vec![0.0; u.len()]);
         g
     }
 
