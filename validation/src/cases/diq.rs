@@ -26,7 +26,7 @@ const RHO: Real = 1000.0;
 const G: Real = 9.81;
 
 /// A fluid that is not used for its equation of state (the DIQ fluid is incompressible).
-fn water() -> Material {
+pub(crate) fn water() -> Material {
     Material::Fluid(FluidMaterial {
         density: RHO,
         eos: Tait {
@@ -86,7 +86,7 @@ impl Setup {
 }
 
 /// Free-slip walls `thickness` node layers in from the grid's faces.
-fn slip_walls<const D: usize>(thickness: usize) -> Boundaries<D> {
+pub(crate) fn slip_walls<const D: usize>(thickness: usize) -> Boundaries<D> {
     Boundaries {
         walls: Some(DomainWalls {
             contact: Contact {
@@ -99,7 +99,8 @@ fn slip_walls<const D: usize>(thickness: usize) -> Boundaries<D> {
     }
 }
 
-fn adaptive(dt_max: Real) -> TimeStepPolicy {
+/// The adaptive step of the DIQ solvers: no particle moves more than 0.4 Δx, at most `dt_max` (s).
+pub(crate) fn adaptive(dt_max: Real) -> TimeStepPolicy {
     TimeStepPolicy::Adaptive {
         cfl: 0.4,
         dt_max,
@@ -108,7 +109,7 @@ fn adaptive(dt_max: Real) -> TimeStepPolicy {
 }
 
 /// One timed step.
-fn step(f: &mut DiqFluid<2>, wall: &mut Duration) -> Result<StepInfo, StepError> {
+pub(crate) fn step(f: &mut impl Solver<2>, wall: &mut Duration) -> Result<StepInfo, StepError> {
     let t = Instant::now();
     let r = Solver::step(f);
     *wall += t.elapsed();
@@ -116,7 +117,7 @@ fn step(f: &mut DiqFluid<2>, wall: &mut Duration) -> Result<StepInfo, StepError>
 }
 
 /// Runs `run(n)` at each resolution, collecting runs and failures.
-fn sweep(
+pub(crate) fn sweep(
     name: &str,
     ns: &[usize],
     mut run: impl FnMut(usize) -> Result<Run, String>,
@@ -141,9 +142,11 @@ fn sweep(
     (runs, failures)
 }
 
-fn record(
+/// The run record of solver `f` after its last step: Δx (m), the mean dt, particles, steps,
+/// the wall time spent in steps, the error and the case's extra numbers.
+pub(crate) fn record(
     dx: Real,
-    f: &DiqFluid<2>,
+    f: &impl Solver<2>,
     wall: Duration,
     error: Real,
     extra: BTreeMap<String, Real>,

@@ -2,6 +2,7 @@
 
 pub mod bar;
 pub mod diq;
+pub mod diq_coupled;
 pub mod disk;
 pub mod hydrostatic;
 pub mod mms;
@@ -128,6 +129,14 @@ pub static REGISTRY: &[&dyn Case] = &[
     &FnCase {
         name: diq::incompressible_vs_wc::NAME,
         run: diq::incompressible_vs_wc::case,
+    },
+    &FnCase {
+        name: diq_coupled::coupled_momentum::NAME,
+        run: diq_coupled::coupled_momentum::case,
+    },
+    &FnCase {
+        name: diq_coupled::no_leakage::NAME,
+        run: diq_coupled::no_leakage::case,
     },
 ];
 
