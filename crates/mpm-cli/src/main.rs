@@ -14,7 +14,8 @@ const EXIT_CODES: &str =
     "Exit codes: 0 ok, 1 other error (e.g. a file could not be written), 2 bad \
 input, 3 numerical instability, 130 / 143 a run stopped by SIGINT (Ctrl-C) / SIGTERM: it finished \
 its step and wrote a checkpoint, a snapshot and summary.json (status \"interrupted\"); continue \
-it with --resume. A second signal ends it at once.";
+it with --resume. A second signal ends it at once (killed by that signal); files written before \
+stay complete.";
 
 #[derive(Parser)]
 #[command(
@@ -34,7 +35,9 @@ enum Command {
     ///
     /// SIGINT (Ctrl-C) or SIGTERM stops the run after the current step with a checkpoint
     /// ckpt_NNNNNN.h5, a snapshot and summary.json (status "interrupted"), exit code 130 or 143;
-    /// --resume continues it bitwise. A second signal ends the process at once.
+    /// --resume continues it bitwise. A second signal ends the process at once, killed by that
+    /// signal; every file written before stays complete (files are renamed into place when
+    /// complete), and --resume from the newest checkpoint continues.
     #[command(after_help = EXIT_CODES)]
     Run {
         /// Scene file (TOML).
