@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 use mpm_cli::render::RenderOptions;
 use mpm_cli::run::RunOptions;
+use mpm_cli::scene::Precision;
 use mpm_cli::surface::SurfaceOptions;
 use mpm_cli::CliError;
 use std::path::PathBuf;
@@ -51,6 +52,13 @@ enum Command {
         /// Number of worker threads (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+        /// Store snapshot datasets in this precision, overriding [output] precision
+        /// (checkpoints stay f64).
+        #[arg(long, value_enum)]
+        precision: Option<Precision>,
+        /// gzip level 1-9 of snapshot datasets, or 0 for none, overriding [output] compression.
+        #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(u8).range(0..=9))]
+        compression: Option<u8>,
         /// No progress output and no final report (warnings and errors still go to stderr;
         /// summary.json is written as always).
         #[arg(long)]
@@ -147,12 +155,16 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             out,
             resume,
             threads,
+            precision,
+            compression,
             quiet,
         } => mpm_cli::run::run(&RunOptions {
             scene,
             out,
             resume,
             threads,
+            precision,
+            compression,
             quiet,
             stop: Some(mpm_cli::run::stop_on_signals()?),
         }),

@@ -3,7 +3,7 @@
 
 use crate::build::{build, AnyBuilt, Built};
 use crate::error::CliError;
-use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene};
+use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene, Precision};
 use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, to_field, UNITS};
 use mpm_core::solver::StageTime;
 use mpm_core::{Diagnostics, Dim, DimOps, Solver, StepError, StepInfo};
@@ -30,6 +30,11 @@ pub struct RunOptions {
     pub resume: Option<PathBuf>,
     /// Size of the rayon thread pool.
     pub threads: Option<usize>,
+    /// Snapshot precision overriding `[output] precision`.
+    pub precision: Option<Precision>,
+    /// gzip level of snapshot datasets (0 for none, at most 9) overriding
+    /// `[output] compression`.
+    pub compression: Option<u8>,
     /// No progress output.
     pub quiet: bool,
     /// Set to a signal number (nonzero) to stop the run after the current step with a
@@ -129,7 +134,10 @@ pub fn run(opts: &RunOptions) -> Result<(), CliError> {
             .build_global()
             .map_err(|e| CliError::Other(format!("error: cannot set up {n} threads: {e}")))?;
     }
-    let scene = scene::load(&opts.scene)?;
+    let mut scene = scene::load(&opts.scene)?;
+    let output = &mut scene.scene.output;
+    output.precision = opts.precision.unwrap_or(output.precision);
+    output.compression = opts.compression.unwrap_or(output.compression);
     let built = build(&scene)?;
     let (out, from_scene) = match &opts.out {
         Some(o) => (o.clone(), false),
