@@ -104,33 +104,35 @@ where
     );
     let stable = s.stable_dt();
     let bound = s.dt_bound();
-    // At rest a velocity-only bound is infinite: say so instead of printing "inf s".
+    // At rest a velocity-only bound is infinite: say so instead of printing "inf s". The bound's
+    // description goes on a line of its own: it is a formula or a sentence with its own
+    // parentheses, which read garbled when nested into the step's formula.
     let at_start = if stable.is_finite() {
-        format!("{stable:.3e} s")
+        format!("{stable:.3e} s at start")
     } else {
-        "no limit (everything at rest)".to_string()
+        "none at start (everything at rest)".to_string()
     };
     let dt_text = match sc.simulation.time_step {
-        TimeStepDef::Adaptive { dt_max, .. } => format!(
-            "cfl · ({}) at start: {at_start}, so dt = {:.3e} s",
-            bound.description,
+        TimeStepDef::Adaptive { cfl, dt_max, .. } => format!(
+            "adaptive with cfl = {cfl}, at most dt_max = {dt_max:e} s: dt = {:.3e} s at start",
             stable.min(dt_max)
         ),
         TimeStepDef::Fixed { dt } => format!(
-            "fixed dt = {dt:e} s; stable bound {} at start: {at_start}{}",
-            bound.description,
+            "fixed dt = {dt:e} s{}",
             if dt > stable && bound.limits_fixed_dt {
-                ": the fixed dt is ABOVE IT"
+                ", ABOVE the stable bound"
             } else {
                 ""
             }
         ),
     };
+    let bound_text = format!("{at_start}, from {}", bound.description);
     let _ = writeln!(o, "stages each step:");
     for (i, st) in s.plan().stages.iter().enumerate() {
         let _ = writeln!(o, "  {:>2}. {} — {}", i + 1, st.stage, st.detail);
     }
     let _ = writeln!(o, "time step:  {dt_text}");
+    let _ = writeln!(o, "  bound:    {bound_text}");
     let stop = match sc.simulation.duration {
         Duration::EndTime { end_time } => format!("at t = {end_time} s"),
         Duration::Steps { steps } => format!("after {steps} steps"),

@@ -2,6 +2,7 @@
 //! units and value ranges. `mpm-cli info DIR`: an overview of a run's output directory.
 
 use crate::error::CliError;
+use crate::input::{read_text, MAX_SUMMARY_BYTES};
 use crate::run::numbered_files;
 use mpm_io::{read_file, read_header, read_layout, Data, FileKind};
 use std::fmt::Write as _;
@@ -85,6 +86,19 @@ pub fn info(path: &Path, scene: bool) -> Result<String, CliError> {
     Ok(o)
 }
 
+/// The parsed `summary.json` at `path`, `None` when there is none. A summary that is not a
+/// regular file, is larger than [`MAX_SUMMARY_BYTES`] or is not JSON is bad input.
+fn read_summary(path: &Path) -> Result<Option<serde_json::Value>, CliError> {
+    if std::fs::symlink_metadata(path).is_err() {
+        return Ok(None);
+    }
+    let bad = |why: String| CliError::BadInput(format!("error: {}: {why}", path.display()));
+    let text = read_text(path, MAX_SUMMARY_BYTES).map_err(bad)?;
+    serde_json::from_str(&text)
+        .map(Some)
+        .map_err(|e| bad(format!("not JSON: {e}")))
+}
+
 /// An overview of a run directory: its snapshots (count, first and last time and step), its
 /// checkpoints, and the status of `summary.json`.
 fn run_dir(dir: &Path) -> Result<String, CliError> {
@@ -128,10 +142,7 @@ fn run_dir(dir: &Path) -> Result<String, CliError> {
         "none"
     };
     let _ = writeln!(o, "series:        {series}");
-    let summary = std::fs::read_to_string(dir.join("summary.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
-    match summary {
+    match read_summary(&dir.join("summary.json"))? {
         Some(s) => {
             let _ = writeln!(
                 o,

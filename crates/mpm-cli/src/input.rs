@@ -1,4 +1,5 @@
-//! Reading the text input files (scenes and OBJ meshes): regular files only, with a size cap
+//! Reading the text input files (scenes, OBJ meshes, a run's `summary.json`): regular files only,
+//! with a size cap
 //! checked before reading, so that a path to a device, a FIFO or a huge file cannot hang the
 //! tool or exhaust its memory.
 
@@ -11,6 +12,9 @@ pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 /// Largest OBJ mesh file read: 256 MiB (a mesh of [`crate::mesh::MAX_TRIANGLES`] triangles
 /// takes about 100 MB of OBJ text).
 pub const MAX_MESH_BYTES: u64 = 256 << 20;
+
+/// Largest `summary.json` that `mpm-cli info` reads: 16 MiB (a summary is a few kilobytes).
+pub const MAX_SUMMARY_BYTES: u64 = 16 << 20;
 
 /// The text of the regular file at `path`, at most `limit` bytes. The error says why it cannot
 /// be read (missing, not a regular file, too large, not UTF-8) without naming the file.

@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 use mpm_cli::render::RenderOptions;
 use mpm_cli::run::RunOptions;
+use mpm_cli::scene::Precision;
 use mpm_cli::surface::SurfaceOptions;
 use mpm_cli::CliError;
 use std::path::PathBuf;
@@ -14,7 +15,8 @@ const EXIT_CODES: &str =
     "Exit codes: 0 ok, 1 other error (e.g. a file could not be written), 2 bad \
 input, 3 numerical instability, 130 / 143 a run stopped by SIGINT (Ctrl-C) / SIGTERM: it finished \
 its step and wrote a checkpoint, a snapshot and summary.json (status \"interrupted\"); continue \
-it with --resume. A second signal ends it at once.";
+it with --resume. A second signal ends it at once (killed by that signal); files written before \
+stay complete.";
 
 #[derive(Parser)]
 #[command(
@@ -34,7 +36,9 @@ enum Command {
     ///
     /// SIGINT (Ctrl-C) or SIGTERM stops the run after the current step with a checkpoint
     /// ckpt_NNNNNN.h5, a snapshot and summary.json (status "interrupted"), exit code 130 or 143;
-    /// --resume continues it bitwise. A second signal ends the process at once.
+    /// --resume continues it bitwise. A second signal ends the process at once, killed by that
+    /// signal; every file written before stays complete (files are renamed into place when
+    /// complete), and --resume from the newest checkpoint continues.
     #[command(after_help = EXIT_CODES)]
     Run {
         /// Scene file (TOML).
@@ -48,6 +52,13 @@ enum Command {
         /// Number of worker threads (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+        /// Store snapshot datasets in this precision, overriding [output] precision
+        /// (checkpoints stay f64).
+        #[arg(long, value_enum)]
+        precision: Option<Precision>,
+        /// gzip level 1-9 of snapshot datasets, or 0 for none, overriding [output] compression.
+        #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(u8).range(0..=9))]
+        compression: Option<u8>,
         /// No progress output and no final report (warnings and errors still go to stderr;
         /// summary.json is written as always).
         #[arg(long)]
@@ -144,12 +155,16 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             out,
             resume,
             threads,
+            precision,
+            compression,
             quiet,
         } => mpm_cli::run::run(&RunOptions {
             scene,
             out,
             resume,
             threads,
+            precision,
+            compression,
             quiet,
             stop: Some(mpm_cli::run::stop_on_signals()?),
         }),

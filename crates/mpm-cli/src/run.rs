@@ -3,12 +3,13 @@
 
 use crate::build::{build, AnyBuilt, Built};
 use crate::error::CliError;
-use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene};
+use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene, Precision};
 use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, to_field, UNITS};
 use mpm_core::solver::StageTime;
 use mpm_core::{Diagnostics, Dim, DimOps, Solver, StepError, StepInfo};
 use mpm_io::{
-    read_file, read_layout, write_file, write_file_with, write_xdmf, FileKind, Header, SeriesEntry,
+    read_file, read_layout, write_atomically, write_file, write_file_with, write_xdmf, FileKind,
+    Header, SeriesEntry,
 };
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -29,6 +30,11 @@ pub struct RunOptions {
     pub resume: Option<PathBuf>,
     /// Size of the rayon thread pool.
     pub threads: Option<usize>,
+    /// Snapshot precision overriding `[output] precision`.
+    pub precision: Option<Precision>,
+    /// gzip level of snapshot datasets (0 for none, at most 9) overriding
+    /// `[output] compression`.
+    pub compression: Option<u8>,
     /// No progress output.
     pub quiet: bool,
     /// Set to a signal number (nonzero) to stop the run after the current step with a
@@ -40,7 +46,9 @@ pub struct RunOptions {
 /// Installs handlers so that the first SIGINT or SIGTERM stores its signal number in the
 /// returned flag (the run loop then finishes its step, writes a checkpoint, a snapshot and
 /// `summary.json` with status "interrupted", and exits with 128 + the number), and a second
-/// one ends the process at once with the signal's default action.
+/// one ends the process at once with the signal's default action. Every output is written
+/// under a temporary name and renamed into place, so that second signal, even during the
+/// checkpoint write, leaves the files written before complete.
 pub fn stop_on_signals() -> Result<Arc<AtomicUsize>, CliError> {
     use signal_hook::consts::{SIGINT, SIGTERM};
     use signal_hook::flag;
@@ -126,7 +134,10 @@ pub fn run(opts: &RunOptions) -> Result<(), CliError> {
             .build_global()
             .map_err(|e| CliError::Other(format!("error: cannot set up {n} threads: {e}")))?;
     }
-    let scene = scene::load(&opts.scene)?;
+    let mut scene = scene::load(&opts.scene)?;
+    let output = &mut scene.scene.output;
+    output.precision = opts.precision.unwrap_or(output.precision);
+    output.compression = opts.compression.unwrap_or(output.compression);
     let built = build(&scene)?;
     let (out, from_scene) = match &opts.out {
         Some(o) => (o.clone(), false),
@@ -198,7 +209,7 @@ impl Schedule {
 }
 
 /// Removes the temporary files a killed run leaves in `dir` (`.snap_000042.h5.tmp-PID`, and the
-/// same for checkpoints and `run.xmf`); returns how many.
+/// same for checkpoints, `run.xmf` and `summary.json`); returns how many.
 fn remove_temporary_files(dir: &Path) -> usize {
     let Ok(rd) = std::fs::read_dir(dir) else {
         return 0;
@@ -206,7 +217,7 @@ fn remove_temporary_files(dir: &Path) -> usize {
     rd.filter_map(Result::ok)
         .filter(|e| {
             let name = e.file_name().to_string_lossy().into_owned();
-            [".snap_", ".ckpt_", ".run.xmf"]
+            [".snap_", ".ckpt_", ".run.xmf", ".summary.json"]
                 .iter()
                 .any(|p| name.starts_with(p))
                 && name.contains(".tmp-")
@@ -721,7 +732,9 @@ where
         let summary = self.summary(wall_s, failure.as_ref(), interrupted);
         let text = serde_json::to_string_pretty(&summary).unwrap_or_else(|_| "{}".to_string());
         let summary_path = self.out.join("summary.json");
-        let write_summary = std::fs::write(&summary_path, text + "\n");
+        // Atomic, so that a second signal or a kill while it is written cannot leave a
+        // truncated summary.json.
+        let write_summary = write_atomically(&summary_path, (text + "\n").as_bytes());
         if let Some(e) = failure {
             eprintln!(
                 "run stopped after {} steps; outputs written so far are kept in {}",
@@ -730,12 +743,7 @@ where
             );
             return Err(e);
         }
-        write_summary.map_err(|e| {
-            CliError::Other(format!(
-                "error: cannot write {}: {e}",
-                summary_path.display()
-            ))
-        })?;
+        write_summary?;
         if let Some(signal) = interrupted {
             let ckpt = self.out.join(checkpoint_name(self.solver.steps()));
             return Err(CliError::Interrupted {

@@ -4,8 +4,6 @@
 mod common;
 
 use common::*;
-use mpm_cli::run::numbered_files;
-use mpm_io::read_file;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
@@ -65,38 +63,9 @@ fn killed_runs_leave_readable_snapshots() {
         std::thread::sleep(Duration::from_millis(delay_ms));
         child.kill().expect("SIGKILL");
         let _ = child.wait();
-        let snaps = numbered_files(&out, "snap_");
-        let mut n = None;
-        for (k, (frame, path)) in snaps.iter().enumerate() {
-            assert_eq!(*frame, k as u64, "frames are consecutive");
-            let s = read_file(path).unwrap_or_else(|e| panic!("kill after {delay_ms} ms: {e}"));
-            let len = s.field("x").expect("x").spec().shape[0];
-            assert_eq!(*n.get_or_insert(len), len);
-            assert!(s.fields.iter().all(|f| f.spec().shape[0] == len));
-        }
-        for (_, path) in numbered_files(&out, "ckpt_") {
-            read_file(&path).unwrap_or_else(|e| panic!("checkpoint after {delay_ms} ms: {e}"));
-        }
-        // Nothing else is named like a snapshot, whatever the kill interrupted.
-        for e in std::fs::read_dir(&out).expect("out dir") {
-            let name = e.expect("entry").file_name().to_string_lossy().into_owned();
-            if name.starts_with("snap_") || name.starts_with("ckpt_") {
-                assert!(name.ends_with(".h5"), "stray file {name}");
-            }
-            if name.contains(".tmp-") {
-                hits += 1;
-            }
-        }
-        if let Ok(xmf) = std::fs::read_to_string(out.join("run.xmf")) {
-            // DataItems read `>snap_000042.h5:/particles/x<`.
-            for line in xmf.lines().filter(|l| l.contains(".h5:/")) {
-                let start = line.find('>').expect("DataItem text") + 1;
-                let end = line.find(".h5:/").expect("file:dataset") + 3;
-                let file = &line[start..end];
-                assert!(out.join(file).exists(), "run.xmf refers to missing {file}");
-            }
-        }
-        eprintln!("kill after {delay_ms} ms: {} snapshots intact", snaps.len());
+        let (snaps, temporary) = assert_outputs_intact(&out, &format!("kill after {delay_ms} ms"));
+        hits += temporary;
+        eprintln!("kill after {delay_ms} ms: {} snapshots intact", snaps);
         let _ = std::fs::remove_dir_all(&out);
     }
     eprintln!("{hits} kills interrupted a file being written");

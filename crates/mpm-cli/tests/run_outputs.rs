@@ -357,3 +357,35 @@ fn info_on_a_run_directory_gives_an_overview_and_on_another_directory_exit_2() {
     assert!(stderr(&o).contains("holds no snapshot"), "{}", stderr(&o));
     assert!(!stderr(&o).contains("HDF5"), "{}", stderr(&o));
 }
+
+#[test]
+fn info_refuses_a_summary_that_is_a_pipe_too_large_or_not_json_with_exit_2() {
+    let d = tmpdir("info-summary");
+    let out = run_scene(&d, "water.toml", WATER_2D);
+    let summary = out.join("summary.json");
+    let info = || cli(&["info", &out.to_string_lossy()]);
+    let expect_2 = |what: &str| {
+        let o = info();
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("summary.json") && err.contains(what), "{err}");
+    };
+    // Larger than the 16 MiB cap (sparse, so nothing is written).
+    std::fs::File::create(&summary)
+        .and_then(|f| f.set_len((16 << 20) + 1))
+        .expect("sparse summary");
+    expect_2("16777217 bytes, larger than the limit of 16777216 bytes (16 MiB)");
+    std::fs::write(&summary, "{\"status\": \"ok\", \"ste").expect("write");
+    expect_2("not JSON");
+    // A named pipe with no writer: opening it would wait forever.
+    std::fs::remove_file(&summary).expect("remove");
+    let made = std::process::Command::new("mkfifo").arg(&summary).status();
+    if made.is_ok_and(|s| s.success()) {
+        expect_2("not a regular file");
+    }
+    // No summary at all is a run going on or killed, not an error.
+    std::fs::remove_file(&summary).expect("remove");
+    let o = info();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("summary.json:  none"), "{}", stdout(&o));
+}

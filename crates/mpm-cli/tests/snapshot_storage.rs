@@ -2,7 +2,8 @@
 //! of a snapshot is float32 holding exactly the f64 value of a default run rounded to f32
 //! (integers untouched), compressed datasets hold the same values, checkpoints stay f64 and
 //! bitwise equal to the default run's, `run.xmf` declares `Precision="4"` for f32 fields (also
-//! after a resume), VTK and meshio read it, and the files are smaller.
+//! after a resume), VTK and meshio read it, and the files are smaller. `run --precision` and
+//! `--compression` override the scene's keys.
 
 mod common;
 
@@ -193,5 +194,103 @@ fn bad_precision_and_compression_are_scene_errors() {
         let o = cli(&["check", &scene.to_string_lossy()]);
         assert_eq!(o.status.code(), Some(2), "{keys}: {}", stderr(&o));
         assert!(stderr(&o).contains(needle), "{}", stderr(&o));
+    }
+}
+
+/// Checks the datasets of a run directory with h5py: argv = dir, 1 if float datasets should be
+/// float32, the expected gzip level (0: no filter). Snapshots are checked against these,
+/// checkpoints are always float64 without filters. Prints the number of datasets checked.
+const FILTERS: &str = r#"
+import sys, pathlib, h5py, numpy as np
+d, single, level = pathlib.Path(sys.argv[1]), sys.argv[2] == "1", int(sys.argv[3])
+n = 0
+for pattern, f32, gzip in (("snap_*.h5", single, level), ("ckpt_*.h5", False, 0)):
+    for p in sorted(d.glob(pattern)):
+        with h5py.File(p) as f:
+            for k, ds in f["particles"].items():
+                if ds.dtype.kind == "f":
+                    want = np.float32 if f32 else np.float64
+                    assert ds.dtype == want, (p.name, k, ds.dtype)
+                if gzip:
+                    assert ds.compression == "gzip", (p.name, k, ds.compression)
+                    assert ds.compression_opts == gzip, (p.name, k, ds.compression_opts)
+                    assert ds.shuffle, (p.name, k)
+                else:
+                    assert ds.compression is None and not ds.shuffle, (p.name, k)
+                n += 1
+print(n)
+"#;
+
+#[test]
+fn run_flags_precision_and_compression_override_the_scene_keys() {
+    let d = tmpdir("storage-flags");
+    let plain = write(&d, "plain.toml", CUBE_3D);
+    let keyed = write(
+        &d,
+        "keyed.toml",
+        &CUBE_3D.replace(
+            "interval_steps = 5\n\n[checkpoint]",
+            "interval_steps = 5\nprecision = \"f32\"\ncompression = 6\n\n[checkpoint]",
+        ),
+    );
+    // (scene, flags, float32 snapshots, gzip level)
+    let cases: [(&Path, &[&str], bool, u8); 3] = [
+        (
+            &plain,
+            &["--precision", "f32", "--compression", "6"],
+            true,
+            6,
+        ),
+        (
+            &keyed,
+            &["--precision", "f64", "--compression", "0"],
+            false,
+            0,
+        ),
+        (&keyed, &["--compression", "1"], true, 1),
+    ];
+    for (i, (scene, flags, single, level)) in cases.into_iter().enumerate() {
+        let out = d.join(format!("out{i}"));
+        run(scene, &out, flags);
+        // The stored type as `info` reports it, without Python.
+        let snap = numbered_files(&out, "snap_")
+            .last()
+            .expect("snapshot")
+            .1
+            .clone();
+        let info = stdout(&cli(&["info", &snap.to_string_lossy()]));
+        let x = info.lines().find(|l| l.starts_with("x ")).expect("x line");
+        let want = if single { "f32" } else { "f64" };
+        // `x  [13824, 3]  f32  m  …`
+        assert_eq!(x.split_whitespace().nth(3), Some(want), "{flags:?}: {x}");
+        let Some(py) = python_with("h5py, numpy") else {
+            eprintln!("skipped the h5py filter check: no Python with h5py (set MPM_PYTHON)");
+            continue;
+        };
+        let o = Command::new(&py)
+            .arg("-c")
+            .arg(FILTERS)
+            .arg(&out)
+            .arg(u8::from(single).to_string())
+            .arg(level.to_string())
+            .output()
+            .expect("python");
+        assert!(o.status.success(), "{flags:?}: {}", stderr(&o));
+        // 3 snapshots and 2 checkpoints, each with at least x, v, F.
+        let n: usize = stdout(&o).trim().parse().expect("count");
+        assert!(n >= 15, "{flags:?}: {n} datasets");
+    }
+    for flags in [["--precision", "f16"], ["--compression", "10"]] {
+        let out = d.join("bad");
+        let o = cli(&[
+            "run",
+            &plain.to_string_lossy(),
+            "--out",
+            &out.to_string_lossy(),
+            flags[0],
+            flags[1],
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{flags:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(flags[0]), "{}", stderr(&o));
     }
 }

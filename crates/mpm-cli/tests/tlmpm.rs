@@ -155,7 +155,10 @@ fn check_prints_only_the_tlmpm_stages_a_scene_runs() {
     assert!(!cantilever.contains("reference_update"), "{cantilever}");
     // A beam at rest has no velocity bound: the line says so instead of "inf s".
     assert!(
-        cantilever.contains("at start: no limit (everything at rest)"),
+        cantilever.contains(
+            "time step:  fixed dt = 2.5e-3 s\n  bound:    none at start (everything at rest), \
+             from dx / max|v| (backward Euler has no wave-speed limit)\n"
+        ),
         "{cantilever}"
     );
     assert!(!cantilever.contains("inf s"), "{cantilever}");

@@ -1,7 +1,7 @@
-//! DIQ-MPM (`diq-mpm.txt`, §4–5): the incompressible MPM fluid ([`DiqFluid`]), the sparse SPD
-//! pressure-only system ([`pressure`]) and the coupling of the fluid to mixed total-Lagrangian
-//! solids by dual interface quadrature ([`DiqCoupled`], see [`coupled`] for the derivation of
-//! Eq. 35 and what is measured of it).
+//! DIQ-MPM (`diq-mpm` in docs/references.md, §4–5): the incompressible MPM fluid
+//! ([`DiqFluid`]), the sparse SPD pressure-only system ([`pressure`]) and the coupling of the
+//! fluid to mixed total-Lagrangian solids by dual interface quadrature ([`DiqCoupled`], see
+//! [`coupled`] for the derivation of Eq. 35 and what is measured of it).
 //!
 //! # The fluid step (§5.1, fluid stages)
 //!

@@ -52,6 +52,17 @@ where
     sync_dir(parent_dir(path))
 }
 
+/// Writes `bytes` to `path` atomically (see [`replace_atomically`]): a reader, or a process killed
+/// while writing, sees either the old file or the complete new one, never a truncated file.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+    replace_atomically(path, |tmp| {
+        fs::write(tmp, bytes).map_err(|source| IoError::Fs {
+            path: tmp.to_path_buf(),
+            source,
+        })
+    })
+}
+
 /// Flushes a closed file's data and metadata to the storage device.
 fn sync_file(path: &Path) -> Result<(), IoError> {
     let fs_err = |source| IoError::Fs {

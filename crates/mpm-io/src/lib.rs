@@ -26,6 +26,7 @@
 //! Every file is written to a temporary name in the same directory (`.<name>.tmp-<pid>`,
 //! hidden from globs such as `snap_*.h5`), closed, fsynced and renamed into place, and the
 //! directory is fsynced, so a reader never sees a half-written file under its final name.
+//! [`write_atomically`] does the same for any other file (the CLI's `summary.json`).
 
 mod atomic;
 mod checksum;
@@ -33,6 +34,7 @@ mod error;
 mod snapshot;
 mod xdmf;
 
+pub use atomic::write_atomically;
 pub use error::IoError;
 pub use snapshot::{
     list_files, read_file, read_header, read_layout, reseal, write_file, write_file_with, Data,

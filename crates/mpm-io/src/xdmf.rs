@@ -2,7 +2,7 @@
 //! Polyvertex topology, XY (2D) or XYZ (3D) geometry from `/particles/x`, and one attribute per
 //! other field, all referencing the HDF5 datasets.
 
-use crate::atomic::replace_atomically;
+use crate::atomic::write_atomically;
 use crate::{Field, FieldSpec, Header, IoError, CONNECTIVITY_DATASET};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -62,12 +62,7 @@ pub fn write_xdmf(path: &Path, entries: &[SeriesEntry]) -> Result<(), IoError> {
         path: path.to_path_buf(),
         message,
     })?;
-    replace_atomically(path, |tmp| {
-        std::fs::write(tmp, text.as_bytes()).map_err(|source| IoError::Fs {
-            path: tmp.to_path_buf(),
-            source,
-        })
-    })
+    write_atomically(path, text.as_bytes())
 }
 
 /// The XDMF attribute type for a field of `shape` (`[N, …]`).

@@ -56,7 +56,7 @@ pub use multigrid::{
     ContactDef, CouplingDef, CouplingKindDef, CouplingName, DissolutionDef, DragDef, FrictionModel,
     InteractionDef, MixingDef, PhiEffRule, PorousDef,
 };
-pub use output::{field_names, CheckpointDef, Interval, OutputDef};
+pub use output::{field_names, CheckpointDef, Interval, OutputDef, Precision};
 pub use simulation::{
     Duration, InitialVolume, InstabilityAction, Simulation, TimeStepDef, TransferKind,
 };

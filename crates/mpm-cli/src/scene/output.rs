@@ -41,6 +41,17 @@ pub enum Interval {
     },
 }
 
+/// Floating-point precision of snapshot datasets: `[output] precision`, or `run --precision`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// Double precision, the values as computed (the default).
+    #[default]
+    F64,
+    /// Single precision, rounded to nearest: half the size.
+    F32,
+}
+
 /// `[output]`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OutputDef {
@@ -51,9 +62,8 @@ pub struct OutputDef {
     pub interval: Interval,
     /// Fields written to snapshots.
     pub fields: Vec<String>,
-    /// Floating-point precision of snapshot datasets: `"f64"` (default) or `"f32"` (half the
-    /// size; checkpoints stay f64).
-    pub precision: String,
+    /// Floating-point precision of snapshot datasets (checkpoints stay f64).
+    pub precision: Precision,
     /// gzip level 1–9 of snapshot datasets (with HDF5's shuffle filter, in chunks); 0: none.
     pub compression: u8,
 }
@@ -62,7 +72,7 @@ impl OutputDef {
     /// How snapshots store their datasets.
     pub fn storage(&self) -> mpm_io::Storage {
         mpm_io::Storage {
-            single: self.precision == "f32",
+            single: self.precision == Precision::F32,
             compression: self.compression,
         }
     }
@@ -172,15 +182,17 @@ pub(super) fn resolve_output(
                 .collect()
         }
     };
-    let precision = o
-        .and_then(|o| o.precision.clone())
-        .unwrap_or_else(|| "f64".into());
-    if precision != "f64" && precision != "f32" {
-        c.err(
-            "output.precision",
-            format!("\"{precision}\": must be \"f64\" or \"f32\""),
-        );
-    }
+    let precision = match o.and_then(|o| o.precision.as_deref()) {
+        None | Some("f64") => Precision::F64,
+        Some("f32") => Precision::F32,
+        Some(other) => {
+            c.err(
+                "output.precision",
+                format!("\"{other}\": must be \"f64\" or \"f32\""),
+            );
+            Precision::F64
+        }
+    };
     let compression = o.and_then(|o| o.compression).unwrap_or(0);
     if compression > 9 {
         c.err(

@@ -88,6 +88,51 @@ pub fn assert_bitwise(a: &Snapshot, b: &Snapshot, what: &str) {
     }
 }
 
+/// What a run stopped at any point must leave in `out`: snapshots numbered 0, 1, 2, … without a
+/// gap, every snapshot and checkpoint under its final name complete (read with its checksums
+/// verified) and of one particle count, nothing else named `snap_…`/`ckpt_…` but `.h5` files,
+/// and `run.xmf` (if any) referring only to existing files. `what` labels failures. Returns
+/// the number of snapshots and the number of temporary files (`.NAME.tmp-PID`) of interrupted
+/// writes.
+pub fn assert_outputs_intact(out: &Path, what: &str) -> (usize, usize) {
+    let snaps = mpm_cli::run::numbered_files(out, "snap_");
+    let ckpts = mpm_cli::run::numbered_files(out, "ckpt_");
+    let mut n = None;
+    for (k, (frame, path)) in snaps.iter().enumerate() {
+        assert_eq!(*frame, k as u64, "{what}: frames are consecutive");
+        let s = mpm_io::read_file(path).unwrap_or_else(|e| panic!("{what}: {e}"));
+        let len = s.field("x").expect("x").spec().shape[0];
+        assert_eq!(*n.get_or_insert(len), len, "{what}: particle count");
+        assert!(s.fields.iter().all(|f| f.spec().shape[0] == len), "{what}");
+    }
+    for (_, path) in &ckpts {
+        mpm_io::read_file(path).unwrap_or_else(|e| panic!("{what}: checkpoint: {e}"));
+    }
+    let mut temporary = 0;
+    for e in std::fs::read_dir(out).expect("out dir") {
+        let name = e.expect("entry").file_name().to_string_lossy().into_owned();
+        if name.starts_with("snap_") || name.starts_with("ckpt_") {
+            assert!(name.ends_with(".h5"), "{what}: stray file {name}");
+        }
+        if name.contains(".tmp-") {
+            temporary += 1;
+        }
+    }
+    if let Ok(xmf) = std::fs::read_to_string(out.join("run.xmf")) {
+        // DataItems read `>snap_000042.h5:/particles/x<`.
+        for line in xmf.lines().filter(|l| l.contains(".h5:/")) {
+            let start = line.find('>').expect("DataItem text") + 1;
+            let end = line.find(".h5:/").expect("file:dataset") + 3;
+            let file = &line[start..end];
+            assert!(
+                out.join(file).exists(),
+                "{what}: run.xmf refers to missing {file}"
+            );
+        }
+    }
+    (snaps.len(), temporary)
+}
+
 /// The built `mpm-cli` binary.
 pub fn bin() -> &'static str {
     env!("CARGO_BIN_EXE_mpm-cli")
