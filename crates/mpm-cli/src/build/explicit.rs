@@ -4,17 +4,17 @@
 
 use super::{
     boundaries, damping, gravity_ramp, on_instability, setup_error, time_step_policy,
-    unused_materials, vector, Built, ErrorKeys, Start,
+    unused_materials, vector, BodyInfo, Built, ErrorKeys, Start,
 };
 use crate::error::SceneError;
 use crate::scene::{
     CouplingDef, CouplingKindDef, DragDef, ExplicitScene, FrictionModel, InitialVolume,
     LoadedScene, Scene, TransferKind,
 };
-use mpm_core::geostatic::set_geostatic;
+use mpm_core::geostatic::{set_geostatic, top_height};
 use mpm_core::material::{Interaction, Scaling};
 use mpm_core::volume::estimate_volumes;
-use mpm_core::{Dim, DimOps};
+use mpm_core::{Dim, DimOps, GridSpec, Material, Particles, Real, Vector};
 use mpm_explicit::{
     BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, Dissolution, Drag, ExplicitParams,
     ExplicitSolver, Friction, Mixing, Phases, Porous, PressureBuoyancy, Transfer,
@@ -158,6 +158,51 @@ fn uncoupled_phases(sc: &Scene, own: &ExplicitScene) -> Vec<String> {
         .collect()
 }
 
+/// A warning for each fluid body whose expected flow speed √(2 g H), times 10, exceeds the sound
+/// speed √(K/ρ) of its material: H (m) is the height of the body's top surface above the
+/// bottom of the grid along gravity, the largest drop the fluid can make. A weakly compressible
+/// fluid needs its sound speed about 10× the flow speed (density errors of order (v/c)²).
+fn compressibility_warnings<const D: usize>(
+    sc: &Scene,
+    spec: &GridSpec<D>,
+    materials: &[Material],
+    particles: &Particles<D>,
+    bodies: &[BodyInfo],
+) -> Vec<String> {
+    let g = vector::<D>(&sc.simulation.gravity);
+    let gravity = g.norm();
+    if gravity == 0.0 {
+        return Vec::new();
+    }
+    let up = -g / gravity;
+    let far = spec.origin + Vector::<D>::from_fn(|a, _| (spec.size[a] - 1) as Real * spec.dx);
+    let floor: Real = (0..D)
+        .map(|a| (up[a] * spec.origin[a]).min(up[a] * far[a]))
+        .sum();
+    let mut out = Vec::new();
+    for (def, body) in sc.bodies.iter().zip(bodies) {
+        let Some(Material::Fluid(fluid)) = materials.get(def.material_index) else {
+            continue;
+        };
+        let height = top_height(particles, body.particles.clone(), &up) - floor;
+        let flow = (2.0 * gravity * height).sqrt();
+        let sound = fluid.sound_speed(1.0);
+        if 10.0 * flow > sound {
+            out.push(format!(
+                "body \"{}\": 10 x the expected flow speed sqrt(2 g H) = 10 x {flow:.3} m/s \
+                 (H = {height:.3} m, its top above the bottom of the grid) exceeds the sound \
+                 speed {sound:.3} m/s of material \"{}\": the fluid is too compressible \
+                 (density errors of order (v/c)^2); a bulk_modulus of at least {:.3e} Pa \
+                 keeps c >= 10 sqrt(2 g H)",
+                def.name,
+                def.material,
+                fluid.density * 200.0 * gravity * height
+            ));
+        }
+    }
+    out
+}
+
 /// The `check` line on the phases of a multi-grid scene; none for one phase.
 fn phase_note(phases: u32, couplings: usize) -> Vec<String> {
     if phases > 1 {
@@ -197,6 +242,7 @@ where
         }
         particles.volume0 = v;
     }
+    let mut warnings = compressibility_warnings(sc, &spec, &materials, &particles, &bodies);
     let gravity = vector::<D>(&sc.simulation.gravity);
     for (i, (def, body)) in sc.bodies.iter().zip(&bodies).enumerate() {
         if def.geostatic {
@@ -211,7 +257,7 @@ where
         }
     }
     let dissolved = own.dissolution.as_ref().map(|d| d.into_index);
-    let mut warnings = unused_materials(sc, &particles, dissolved);
+    warnings.extend(unused_materials(sc, &particles, dissolved));
     warnings.extend(uncoupled_phases(sc, own));
     let solver = ExplicitSolver::new(
         spec,
@@ -234,7 +280,7 @@ mod tests {
     use super::*;
     use crate::error::CliError;
     use crate::scene::parse;
-    use mpm_core::{Material, SetupError};
+    use mpm_core::SetupError;
     use std::path::Path;
 
     const SCENE: &str = "[simulation]\ndim = 2\nsteps = 1\n\n[grid]\nmin = [0.0, 0.0]\n\
