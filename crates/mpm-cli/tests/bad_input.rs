@@ -903,3 +903,36 @@ fn devices_pipes_and_huge_files_are_not_read() {
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     }
 }
+
+#[test]
+fn bad_damping_ramp_and_geostatic_values_exit_2_at_their_key() {
+    let d = tmpdir("rest-state");
+    for (name, extra, key, prefix) in [
+        (
+            "alpha.toml",
+            "local_damping = 1.5",
+            "simulation.local_damping",
+            "local_damping",
+        ),
+        (
+            "rate.toml",
+            "viscous_damping = -2.0",
+            "simulation.viscous_damping",
+            "viscous_damping",
+        ),
+        (
+            "ramp.toml",
+            "gravity_ramp = -0.1",
+            "simulation.gravity_ramp",
+            "gravity_ramp",
+        ),
+    ] {
+        let t = WATER_2D.replace("steps = 60", &format!("steps = 60\n{extra}"));
+        expect_bad(&d, name, &t, "run", key, Some(prefix));
+    }
+    let t = WATER_2D.replace(
+        "name = \"block\"",
+        "name = \"block\"\ngeostatic = true\nk0 = 0.5",
+    );
+    expect_bad(&d, "k0.toml", &t, "check", "bodies[0].k0", Some("k0"));
+}

@@ -389,3 +389,36 @@ fn info_refuses_a_summary_that_is_a_pipe_too_large_or_not_json_with_exit_2() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stdout(&o).contains("summary.json:  none"), "{}", stdout(&o));
 }
+
+#[test]
+fn check_warns_when_ten_times_the_flow_speed_exceeds_the_sound_speed() {
+    let d = tmpdir("compressible");
+    // The block's top particle row (spacing dx/2 = 1/64 m) ends 0.297 m above the floor:
+    // 10 sqrt(2 g H) = 24.1 m/s.
+    let soft = WATER_2D.replace(
+        "preset = \"water\"",
+        "preset = \"water\"\nbulk_modulus = 2e5",
+    );
+    let o = cli(&["check", &write(&d, "soft.toml", &soft).to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains(
+            "warning: body \"block\": 10 x the expected flow speed sqrt(2 g H) = 10 x 2.413 m/s \
+             (H = 0.297 m, its top above the bottom of the grid) exceeds the sound speed 14.142 \
+             m/s of material \"water\""
+        ),
+        "{text}"
+    );
+    // K ≥ ρ · 200 g H = 5.825e5 Pa would do.
+    assert!(text.contains("at least 5.825e5 Pa"), "{text}");
+    // The water preset (K = 2e6 Pa, c = 44.7 m/s) and the default scene do not warn.
+    for path in [
+        write(&d, "preset.toml", WATER_2D),
+        scenes_dir().join("dam_break_2d.toml"),
+    ] {
+        let o = cli(&["check", &path.to_string_lossy()]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(!stdout(&o).contains("warning"), "{}", stdout(&o));
+    }
+}

@@ -171,6 +171,21 @@ pub struct Boundaries<const D: usize> {
 }
 
 impl<const D: usize> Boundaries<D> {
+    /// Frictionless slip walls `thickness` node layers thick on every face of the grid, and no
+    /// colliders.
+    pub fn slip_walls(thickness: usize) -> Self {
+        Self {
+            walls: Some(DomainWalls {
+                contact: Contact {
+                    kind: ContactKind::Slip,
+                    friction: 0.0,
+                },
+                thickness,
+            }),
+            colliders: Vec::new(),
+        }
+    }
+
     /// Applies every boundary to the velocity `v` (m/s) of grid node `node` at time `t` (s).
     /// Walls first, then colliders in order.
     pub fn apply(&self, spec: &GridSpec<D>, t: Real, node: &[i64; D], v: &mut Vector<D>) {

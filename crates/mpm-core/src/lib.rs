@@ -10,12 +10,14 @@
 pub mod boundary;
 pub mod columns;
 pub mod error;
+pub mod geostatic;
 pub mod grid;
 pub mod kernel;
 pub mod material;
 pub mod math;
 pub mod neighbors;
 pub mod particles;
+pub mod quasistatic;
 pub mod sampling;
 pub mod scatter;
 pub mod solver;

@@ -1,19 +1,31 @@
 //! Grid update: velocities from momenta, gravity, boundary conditions, and the grid guard check.
 
 use mpm_core::boundary::Boundaries;
+use mpm_core::quasistatic::Damping;
 use mpm_core::{GridNodes, GridSpec, Location, Real, Vector, Violation};
 use rayon::prelude::*;
 
+/// The accelerations and damping of a grid update.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct NodeForces<const D: usize> {
+    /// Gravity at the start of the step (m/s²), ramped where the scene ramps it.
+    pub gravity: Vector<D>,
+    /// Damping of the unbalanced nodal forces; `None` when off.
+    pub damping: Option<Damping>,
+}
+
 /// Computes node velocities `v_i = p_i/m_i + Δt g`, applies `boundaries` at time `t` when given
-/// (multi-grid runs apply them after the coupling stage, see [`apply_boundaries`]), and, with
-/// FLIP, turns `momentum0` into the pre-update velocities in place. Returns the first node
-/// (lowest index) with a non-finite velocity.
+/// (multi-grid runs apply them after the coupling stage, see [`apply_boundaries`]), and turns
+/// `momentum0` (the momentum P2G transferred without forces) into the pre-update velocities in
+/// place. With damping, `momentum0` must be given: the unbalanced force is
+/// `f_i = (p_i − p⁰_i)/Δt + m_i g` and the velocity `Damping::velocity` of `p⁰_i/m_i` and `f_i`.
+/// Returns the first node (lowest index) with a non-finite velocity.
 pub(crate) fn update<const D: usize>(
     spec: &GridSpec<D>,
     grid: &mut GridNodes<D>,
     momentum0: Option<&mut Vec<Vector<D>>>,
     boundaries: Option<&Boundaries<D>>,
-    gravity: &Vector<D>,
+    forces: &NodeForces<D>,
     t: Real,
     dt: Real,
 ) -> Result<(), (Location, Violation, Real)> {
@@ -22,27 +34,43 @@ pub(crate) fn update<const D: usize>(
         momentum,
         velocity,
     } = grid;
-    velocity
+    let gravity = forces.gravity;
+    let walls = |i: usize, v: &mut Vector<D>| {
+        if let Some(b) = boundaries.filter(|b| !b.is_empty()) {
+            b.apply(spec, t, &spec.multi_index(i), v);
+        }
+    };
+    let nodes = velocity
         .par_iter_mut()
         .zip(momentum.par_iter())
         .zip(mass.par_iter())
-        .enumerate()
-        .for_each(|(i, ((v, p), &m))| {
+        .enumerate();
+    match momentum0 {
+        None => nodes.for_each(|(i, ((v, p), &m))| {
             if m > 0.0 {
                 *v = p / m + gravity * dt;
-                if let Some(b) = boundaries.filter(|b| !b.is_empty()) {
-                    b.apply(spec, t, &spec.multi_index(i), v);
-                }
+                walls(i, v);
             } else {
                 *v = Vector::<D>::zeros();
             }
-        });
-    if let Some(m0) = momentum0 {
-        m0.par_iter_mut().zip(mass.par_iter()).for_each(|(p, &m)| {
-            if m > 0.0 {
-                *p /= m;
-            }
-        });
+        }),
+        Some(m0) => nodes
+            .zip(m0.par_iter_mut())
+            .for_each(|((i, ((v, p), &m)), p0)| {
+                if m > 0.0 {
+                    *v = match &forces.damping {
+                        Some(d) => {
+                            let f = (p - *p0) / dt + gravity * m;
+                            d.velocity(&(*p0 / m), &f, m, dt)
+                        }
+                        None => p / m + gravity * dt,
+                    };
+                    *p0 /= m;
+                    walls(i, v);
+                } else {
+                    *v = Vector::<D>::zeros();
+                }
+            }),
     }
     check_finite(velocity)
 }

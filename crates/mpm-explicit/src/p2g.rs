@@ -51,8 +51,8 @@ pub(crate) fn mls_gradient<const D: usize>(
 }
 
 /// Scatters mass and momentum (with the MLS stress impulse and the body-force impulse of the
-/// step from `t` to `t + dt`) to `grid`. With FLIP,
-/// `momentum0` receives the plain transferred momentum `Σ w m v`.
+/// step from `t` to `t + dt`) to `grid`. `momentum0`, when given (FLIP, damping), receives the
+/// momentum transferred without forces: `Σ w m v`, plus the affine part `Σ w m C d` under APIC.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn p2g<const D: usize>(
     spec: &GridSpec<D>,
@@ -99,7 +99,11 @@ pub(crate) fn p2g<const D: usize>(
             mass[k] += w * m;
             momentum[k] += (mv + affine * d) * w + stress * g;
             if with0 {
-                momentum0[k] += vp * (m * w);
+                momentum0[k] += if apic {
+                    (vp * m + affine * d) * w
+                } else {
+                    vp * (m * w)
+                };
             }
         });
     });

@@ -1,6 +1,7 @@
 //! Parameters of the explicit MLS-MPM solver.
 
 use crate::multigrid::{Dissolution, Mixing, Phases, Porous};
+use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{Kernel, OnInstability, Real, TimeStepPolicy, Vector};
 use serde::{Deserialize, Serialize};
 
@@ -56,6 +57,10 @@ pub struct ExplicitParams<const D: usize> {
     pub transfer: Transfer,
     /// Gravitational acceleration (m/s²).
     pub gravity: Vector<D>,
+    /// Gravity ramp from zero at t = 0 (full gravity from the start when `None`).
+    pub gravity_ramp: Option<GravityRamp>,
+    /// Damping of the nodal forces in the grid update (off by default).
+    pub damping: Damping,
     /// Time-step policy.
     pub time_step: TimeStepPolicy,
     /// Reaction to a failed guard check.
@@ -82,6 +87,8 @@ impl<const D: usize> Default for ExplicitParams<D> {
             kernel: Kernel::Quadratic,
             transfer: Transfer::Apic,
             gravity: Vector::<D>::zeros(),
+            gravity_ramp: None,
+            damping: Damping::default(),
             time_step: TimeStepPolicy::default(),
             on_instability: OnInstability::Abort,
             volume: VolumeUpdate::Deformation,

@@ -62,17 +62,20 @@ where
         ),
     );
     let boundaries = boundary_text(solver.boundaries());
-    plan.push(
-        Stage::GridUpdate,
-        if solver.multigrid() {
-            format!("velocities, gravity {:?} m/s^2", p.gravity.as_slice())
-        } else {
-            format!(
-                "velocities, gravity {:?} m/s^2; boundaries: {boundaries}",
-                p.gravity.as_slice()
-            )
-        },
-    );
+    let mut forces = format!("velocities, gravity {:?} m/s^2", p.gravity.as_slice());
+    if let Some(r) = p.gravity_ramp {
+        forces += &format!(" ramped from 0 over {} s", r.duration);
+    }
+    if p.damping.local > 0.0 {
+        forces += &format!("; local damping alpha = {}", p.damping.local);
+    }
+    if p.damping.viscous > 0.0 {
+        forces += &format!("; viscous damping {} 1/s", p.damping.viscous);
+    }
+    if !solver.multigrid() {
+        forces += &format!("; boundaries: {boundaries}");
+    }
+    plan.push(Stage::GridUpdate, forces);
     if solver.multigrid() {
         let mut parts = Vec::new();
         for (k, n) in needs.iter().enumerate() {

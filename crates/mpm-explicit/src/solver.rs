@@ -3,13 +3,14 @@
 use crate::blocks::Blocks;
 use crate::coupling::{self, GeometryNeeds, PhaseGeometry};
 use crate::g2p::{self, Extra, ExtraContext, G2pContext, Update};
-use crate::grid_update;
+use crate::grid_update::{self, NodeForces};
 use crate::materials::MaterialView;
 use crate::mixing::{self, MixingWork};
 use crate::p2g;
 use crate::params::{ExplicitParams, Transfer, VolumeUpdate};
 use mpm_core::boundary::Boundaries;
 use mpm_core::material::Parameter;
+use mpm_core::quasistatic::gravity_at;
 use mpm_core::solver::{nan_max, DtBound, RestoreError, StageTime};
 use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::volume::density_at;
@@ -357,11 +358,17 @@ where
             .map_or(0, |p| self.particles.phase_of(p) as usize)
     }
 
+    /// Whether P2G also transfers the momentum without forces (FLIP's old velocities, the
+    /// damping's velocity before the update).
+    fn needs_momentum0(&self) -> bool {
+        matches!(self.params.transfer, Transfer::Flip { .. }) || !self.params.damping.is_off()
+    }
+
     /// Stage: P2G of every phase onto its own grid, with the fused MLS stress impulse for a step
     /// of `dt` (s). Requires [`Self::sort_particles`] first.
     fn particle_to_grid(&mut self, dt: Real) {
         let t = Instant::now();
-        let flip = matches!(self.params.transfer, Transfer::Flip { .. });
+        let with0 = self.needs_momentum0();
         let view = material_view(&self.materials, &self.params);
         let ws = &mut self.ws;
         for ((blocks, grid), v0) in ws
@@ -378,7 +385,7 @@ where
                 &view,
                 blocks,
                 grid,
-                flip.then_some(v0),
+                with0.then_some(v0),
                 self.params.body_force.as_ref(),
                 (self.time, dt),
             );
@@ -386,11 +393,24 @@ where
         self.stats.add(Stage::P2G, t.elapsed());
     }
 
-    /// Stage: grid velocities and gravity for every phase; boundaries too on a single grid
-    /// (multi-grid runs apply them after the coupling stage).
+    /// Gravity (m/s²) at the start of the step, ramped where the parameters ramp it.
+    fn gravity(&self) -> Vector<D> {
+        gravity_at(
+            &self.params.gravity,
+            self.params.gravity_ramp.as_ref(),
+            self.time,
+        )
+    }
+
+    /// Stage: grid velocities, gravity and damping for every phase; boundaries too on a single
+    /// grid (multi-grid runs apply them after the coupling stage).
     fn update_grid(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
         let t = Instant::now();
-        let flip = matches!(self.params.transfer, Transfer::Flip { .. });
+        let with0 = self.needs_momentum0();
+        let forces = NodeForces {
+            gravity: self.gravity(),
+            damping: (!self.params.damping.is_off()).then_some(self.params.damping),
+        };
         let boundaries = (!self.multigrid()).then_some(&self.boundaries);
         let mut r = Ok(());
         for (grid, v0) in self
@@ -402,9 +422,9 @@ where
             r = r.and(grid_update::update(
                 &self.spec,
                 grid,
-                flip.then_some(v0),
+                with0.then_some(v0),
                 boundaries,
-                &self.params.gravity,
+                &forces,
                 self.time,
                 dt,
             ));
@@ -418,6 +438,7 @@ where
     fn couple_phases(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
         let t = Instant::now();
         let view = material_view(&self.materials, &self.params);
+        let gravity = self.gravity();
         let ws = &mut self.ws;
         for (k, needs) in self.geometry_needs.iter().enumerate() {
             if needs.geometry {
@@ -433,14 +454,7 @@ where
             }
         }
         for c in &self.params.phases.couplings {
-            coupling::couple(
-                &self.spec,
-                c,
-                &mut ws.grids,
-                &ws.geometry,
-                &self.params.gravity,
-                dt,
-            );
+            coupling::couple(&self.spec, c, &mut ws.grids, &ws.geometry, &gravity, dt);
         }
         let mut r = Ok(());
         for grid in ws.grids.iter_mut() {

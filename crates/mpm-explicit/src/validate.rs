@@ -36,6 +36,14 @@ pub(crate) fn validate<const D: usize>(
             return invalid("soft_walls.lookahead", sw.lookahead, "must be positive");
         }
     }
+    if let Some((name, value, reason)) = params.damping.invalid() {
+        return invalid(name, value, reason);
+    }
+    if let Some(r) = params.gravity_ramp {
+        if !(r.duration > 0.0 && r.duration.is_finite()) {
+            return invalid("gravity ramp", r.duration, "must be a positive finite time");
+        }
+    }
     let columns = particles.columns();
     for (k, m) in materials.iter().enumerate() {
         let used = particles.material.iter().any(|&i| i as usize == k);

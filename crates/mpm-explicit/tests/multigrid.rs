@@ -4,7 +4,7 @@
 mod common;
 
 use common::{fill_box, jelly, water, with_threads};
-use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
+use mpm_core::boundary::Boundaries;
 use mpm_core::material::{FluidMaterial, Interaction, Parameter, Scaling, Tait};
 use mpm_core::{
     Columns, Dim, DimOps, GridSpec, Kernel, Material, Matrix, Particles, Real, Solver, Stage,
@@ -37,16 +37,7 @@ fn coupling(kind: CouplingKind) -> Coupling {
 }
 
 fn walls() -> Boundaries<2> {
-    Boundaries {
-        walls: Some(DomainWalls {
-            contact: Contact {
-                kind: ContactKind::Slip,
-                friction: 0.0,
-            },
-            thickness: 2,
-        }),
-        colliders: Vec::new(),
-    }
+    Boundaries::slip_walls(2)
 }
 
 /// A jelly block (material 0) dropped into a water pool (material 1) in a walled box; with

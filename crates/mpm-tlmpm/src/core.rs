@@ -9,6 +9,7 @@ use crate::reference::{Constraints, ReferenceConfig};
 use crate::transfer::{self, Update};
 use crate::{ExplicitTlmpm, ImplicitTlmpm};
 use mpm_core::material::{ElasticModel, Lame, Plasticity};
+use mpm_core::quasistatic::gravity_at;
 use mpm_core::solver::{nan_max, RestoreError, SolveInfo, SolverState, StepInfo};
 use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::{
@@ -531,8 +532,12 @@ where
         plan.push(
             Stage::ExternalForces,
             format!(
-                "gravity {:?} m/s^2{}",
+                "gravity {:?} m/s^2{}{}",
                 p.gravity.as_slice(),
+                p.gravity_ramp.map_or(String::new(), |r| format!(
+                    " ramped from 0 over {} s",
+                    r.duration
+                )),
                 if self.particle_forces.is_empty() {
                     ""
                 } else {
@@ -596,10 +601,14 @@ where
         );
     }
 
-    /// Stage: external nodal forces `f^ext_i = m_i g + Σ_p W_i(X_p) f_p` (N), gravity plus the
-    /// applied particle forces.
+    /// Stage: external nodal forces `f^ext_i = m_i g + Σ_p W_i(X_p) f_p` (N), gravity (ramped
+    /// where the parameters ramp it, at the start of the step) plus the applied particle forces.
     pub fn external_forces(&mut self) {
-        let g = self.params.gravity;
+        let g = gravity_at(
+            &self.params.gravity,
+            self.params.gravity_ramp.as_ref(),
+            self.time,
+        );
         self.external.clear();
         self.external
             .extend(self.reference.node_masses().iter().map(|&m| g * m));
@@ -872,6 +881,14 @@ fn validate<const D: usize>(
     params.time_step.validate()?;
     if params.gravity.iter().any(|g| !g.is_finite()) {
         return invalid("gravity", Real::NAN, "must be finite");
+    }
+    if let Some((name, value, reason)) = params.damping.invalid() {
+        return invalid(name, value, reason);
+    }
+    if let Some(r) = params.gravity_ramp {
+        if !(r.duration > 0.0 && r.duration.is_finite()) {
+            return invalid("gravity ramp", r.duration, "must be a positive finite time");
+        }
     }
     if let Some(c) = &params.contact {
         if let ContactRadius::Fixed(r) = c.radius {

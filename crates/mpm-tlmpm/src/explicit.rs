@@ -146,8 +146,8 @@ where
     Ok(contact)
 }
 
-/// Stage: internal forces (Eq. 3) at `F^n` and the symplectic Euler node update, stored as
-/// displacements `u_i = Δt v_i^{n+1}` (m).
+/// Stage: internal forces (Eq. 3) at `F^n` and the symplectic Euler node update (damped where
+/// the parameters damp it), stored as displacements `u_i = Δt v_i^{n+1}` (m).
 fn update_grid<const D: usize>(core: &mut Core<D>, stress: &mut Vec<Matrix<D>>, dt: Real)
 where
     Dim<D>: DimOps<D>,
@@ -161,6 +161,7 @@ where
         external,
         displacement,
         adaptive,
+        params,
         ..
     } = core;
     stress.resize(particles.len(), Matrix::<D>::zeros());
@@ -169,9 +170,13 @@ where
     let masses = reference.node_masses();
     displacement.resize(masses.len(), Vector::<D>::zeros());
     let stress = &*stress;
+    let damping = (!params.damping.is_off()).then_some(params.damping);
     displacement.par_iter_mut().enumerate().for_each(|(i, u)| {
         let (f, _) = internal_force(reference, stress, i);
-        let v = grid_velocity[i] + (f + external[i]) * (dt / masses[i]);
+        let v = match &damping {
+            Some(d) => d.velocity(&grid_velocity[i], &(f + external[i]), masses[i], dt),
+            None => grid_velocity[i] + (f + external[i]) * (dt / masses[i]),
+        };
         *u = constraints.displacement(i, v * dt, dt);
     });
 }

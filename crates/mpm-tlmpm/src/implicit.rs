@@ -100,6 +100,18 @@ where
         particles: Particles<D>,
     ) -> Result<Self, SetupError> {
         let t = Instant::now();
+        if !params.damping.is_off() {
+            let (name, value) = if params.damping.local != 0.0 {
+                ("local damping", params.damping.local)
+            } else {
+                ("viscous damping", params.damping.viscous)
+            };
+            return Err(SetupError::InvalidParameter {
+                name,
+                value,
+                reason: "applies to explicit TLMPM only (the implicit step has no damping term)",
+            });
+        }
         let core = Core::new(spec, params, materials, particles)?;
         let mut solver = Self {
             core,

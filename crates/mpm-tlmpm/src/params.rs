@@ -1,6 +1,7 @@
 //! Parameters of the TLMPM solvers.
 
 use crate::contact::{ContactRadius, Obstacle};
+use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{Kernel, OnInstability, Real, TimeStepPolicy, Vector};
 use serde::{Deserialize, Serialize};
 
@@ -68,6 +69,11 @@ pub struct TlmpmParams<const D: usize> {
     pub transfer: Transfer,
     /// Gravitational acceleration (m/s²).
     pub gravity: Vector<D>,
+    /// Gravity ramp from zero at t = 0 (full gravity from the start when `None`).
+    pub gravity_ramp: Option<GravityRamp>,
+    /// Damping of the unbalanced nodal forces (off by default): explicit TLMPM only; the
+    /// implicit solver rejects it, since it has no incremental potential.
+    pub damping: Damping,
     /// Time-step policy. The implicit solver's adaptive bound is `cfl · Δx / max_p |v_p|` (no
     /// wave-speed limit); the explicit solver's is `cfl · Δx / max_p (|v_p| + c_p)`.
     pub time_step: TimeStepPolicy,
@@ -113,6 +119,8 @@ impl<const D: usize> Default for TlmpmParams<D> {
             kernel: Kernel::Quadratic,
             transfer: Transfer::Apic,
             gravity: Vector::<D>::zeros(),
+            gravity_ramp: None,
+            damping: Damping::default(),
             time_step: TimeStepPolicy::default(),
             on_instability: OnInstability::Abort,
             fixed: Vec::new(),

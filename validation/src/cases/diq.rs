@@ -6,7 +6,7 @@
 use super::tlmpm::result;
 use crate::cases::hydrostatic;
 use crate::report::{fit_rate, progress, CaseResult, Mode, Outcome, Run, StabilityRecord};
-use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
+use mpm_core::boundary::Boundaries;
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::{
     Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, Solver, StepError,
@@ -80,22 +80,8 @@ impl Setup {
             position_correction: self.correction,
             ..DiqParams::default()
         };
-        let walls = slip_walls(1);
+        let walls = Boundaries::slip_walls(1);
         DiqFluid::new(spec, params, vec![water()], walls, ps).map_err(|e| e.to_string())
-    }
-}
-
-/// Free-slip walls `thickness` node layers in from the grid's faces.
-pub(crate) fn slip_walls<const D: usize>(thickness: usize) -> Boundaries<D> {
-    Boundaries {
-        walls: Some(DomainWalls {
-            contact: Contact {
-                kind: ContactKind::Slip,
-                friction: 0.0,
-            },
-            thickness,
-        }),
-        colliders: Vec::new(),
     }
 }
 
@@ -503,7 +489,7 @@ pub mod incompressible_vs_wc {
                 affine: Matrix::<2>::zeros(),
             });
         }
-        let walls = slip_walls(3);
+        let walls = Boundaries::slip_walls(3);
         let params = mpm_explicit::ExplicitParams {
             gravity: Vector::<2>::new(0.0, -G),
             time_step: TimeStepPolicy::Adaptive {
@@ -766,7 +752,7 @@ pub mod stability {
                 affine: Matrix::<3>::zeros(),
             });
         }
-        let walls = slip_walls(1);
+        let walls = Boundaries::slip_walls(1);
         let params = DiqParams {
             time_step: adaptive(1e-2),
             ..DiqParams::default()

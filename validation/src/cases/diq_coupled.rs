@@ -3,7 +3,7 @@
 //! break. (The floating block and the stiff limit are measured in `docs/diq.md`; they do not
 //! hold yet.)
 
-use super::diq::{adaptive, record, slip_walls, step, sweep, water};
+use super::diq::{adaptive, record, step, sweep, water};
 use super::tlmpm::result;
 use crate::report::{CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
@@ -73,7 +73,7 @@ fn coupled(
     params.pressure.rel_tol = 1e-10;
     params.gravity = Vector::<2>::new(0.0, if gravity { -G } else { 0.0 });
     let boundaries = if walls {
-        slip_walls(1)
+        Boundaries::slip_walls(1)
     } else {
         Boundaries::default()
     };

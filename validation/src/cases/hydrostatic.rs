@@ -9,8 +9,9 @@
 
 use super::{assemble, lattice, sweep, RunError};
 use crate::report::{fit_rate, least_squares, progress, timed_step, CaseResult, Mode, Run};
-use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
+use mpm_core::boundary::Boundaries;
 use mpm_core::material::{FluidMaterial, Tait};
+use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{
     Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector,
 };
@@ -102,11 +103,33 @@ impl HydroConfig {
 /// Number of lowest lattice rows whose pressure is reported (row 0 is the measured layer).
 pub const ROWS: usize = 4;
 
-/// Builds the column with `n` cells per metre. Returns the solver and, for each of the
-/// [`ROWS`] lowest lattice rows, the indices of its particles (row 0 is the lowest).
+/// The state the column starts in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// The exact hydrostatic state (J from the Tait law at each particle's height).
+    Hydrostatic,
+    /// Unstressed (J = 1): gravity loads the column from rest.
+    Unstressed,
+}
+
+/// Builds the column with `n` cells per metre in its exact hydrostatic state, without damping
+/// or gravity ramp (see [`build_column`]).
 pub fn build(
     cfg: &HydroConfig,
     n: usize,
+) -> Result<(ExplicitSolver<2>, Vec<Vec<usize>>), RunError> {
+    build_column(cfg, n, Start::Hydrostatic, Damping::default(), None)
+}
+
+/// Builds the column with `n` cells per metre, starting in state `start`, with `damping` and
+/// gravity `ramp`. Returns the solver and, for each of the [`ROWS`] lowest lattice rows, the
+/// indices of its particles (row 0 is the lowest).
+pub fn build_column(
+    cfg: &HydroConfig,
+    n: usize,
+    start: Start,
+    damping: Damping,
+    ramp: Option<GravityRamp>,
 ) -> Result<(ExplicitSolver<2>, Vec<Vec<usize>>), RunError> {
     let dx = 1.0 / n as Real;
     let cells_x = (cfg.width / dx).round() as usize;
@@ -131,7 +154,10 @@ pub fn build(
     for (p, x) in xs.iter().enumerate() {
         // The lattice is the current configuration: reference volume V⁰ = V_lattice/J and
         // mass ρ₀V⁰, so the grid sees the density ρ₀/J.
-        let j = cfg.jacobian(x.y);
+        let j = match start {
+            Start::Hydrostatic => cfg.jacobian(x.y),
+            Start::Unstressed => 1.0,
+        };
         let v0 = h * h / j;
         particles.push(ParticleInit {
             x: *x,
@@ -148,18 +174,11 @@ pub fn build(
         }
     }
     particles.jacobian = Some(js);
-    let boundaries = Boundaries {
-        walls: Some(DomainWalls {
-            contact: Contact {
-                kind: ContactKind::Slip,
-                friction: 0.0,
-            },
-            thickness: 3,
-        }),
-        colliders: vec![],
-    };
+    let boundaries = Boundaries::slip_walls(3);
     let params = ExplicitParams {
         gravity: Vector::<2>::new(0.0, -cfg.gravity),
+        gravity_ramp: ramp,
+        damping,
         time_step: TimeStepPolicy::Adaptive {
             cfl: cfg.cfl,
             dt_max: 1.0,

@@ -5,6 +5,7 @@ pub mod diq;
 pub mod diq_coupled;
 pub mod disk;
 pub mod hydrostatic;
+pub mod hydrostatic_cbgeo;
 pub mod mms;
 pub mod multigrid;
 pub mod tlmpm;
@@ -65,6 +66,10 @@ pub static REGISTRY: &[&dyn Case] = &[
     &FnCase {
         name: hydrostatic::NAME,
         run: hydrostatic::case,
+    },
+    &FnCase {
+        name: hydrostatic_cbgeo::NAME,
+        run: hydrostatic_cbgeo::case,
     },
     &FnCase {
         name: multigrid::drag_max::NAME,

@@ -3,28 +3,32 @@
 //! the scene keys of its set-up errors.
 
 use super::{
-    boundaries, on_instability, setup_error, time_step_policy, unused_materials, vector, Built,
-    ErrorKeys, Start,
+    boundaries, damping, gravity_ramp, on_instability, setup_error, time_step_policy,
+    unused_materials, vector, BodyInfo, Built, ErrorKeys, Start,
 };
 use crate::error::SceneError;
 use crate::scene::{
     CouplingDef, CouplingKindDef, DragDef, ExplicitScene, FrictionModel, InitialVolume,
     LoadedScene, Scene, TransferKind,
 };
+use mpm_core::geostatic::{set_geostatic, top_height};
 use mpm_core::material::{Interaction, Scaling};
 use mpm_core::volume::estimate_volumes;
-use mpm_core::{Dim, DimOps};
+use mpm_core::{Dim, DimOps, GridSpec, Material, Particles, Real, Vector};
 use mpm_explicit::{
     BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, Dissolution, Drag, ExplicitParams,
     ExplicitSolver, Friction, Mixing, Phases, Porous, PressureBuoyancy, Transfer,
 };
 
 /// The scene keys of the explicit solver's parameter names (`SetupError::InvalidParameter`).
-const PARAMETER_KEYS: [(&str, &str); 4] = [
+const PARAMETER_KEYS: [(&str, &str); 7] = [
     ("grid.dx", "grid.dx"),
     ("grid.size", "grid.max"),
     ("flip blend", "simulation.flip_blend"),
     ("soft_walls.lookahead", "simulation.soft_walls.lookahead"),
+    ("local damping", "simulation.local_damping"),
+    ("viscous damping", "simulation.viscous_damping"),
+    ("gravity ramp", "simulation.gravity_ramp"),
 ];
 
 /// The scene keys of the explicit solver's set-up errors: its parameters, and its multi-grid
@@ -61,6 +65,8 @@ pub fn params<const D: usize>(scene: &LoadedScene, own: &ExplicitScene) -> Expli
             },
         },
         gravity: vector::<D>(&s.gravity),
+        gravity_ramp: gravity_ramp(s),
+        damping: damping(s),
         time_step: time_step_policy(s),
         on_instability: on_instability(s),
         volume: s.volume_update,
@@ -152,6 +158,51 @@ fn uncoupled_phases(sc: &Scene, own: &ExplicitScene) -> Vec<String> {
         .collect()
 }
 
+/// A warning for each fluid body whose expected flow speed √(2 g H), times 10, exceeds the sound
+/// speed √(K/ρ) of its material: H (m) is the height of the body's top surface above the
+/// bottom of the grid along gravity, the largest drop the fluid can make. A weakly compressible
+/// fluid needs its sound speed about 10× the flow speed (density errors of order (v/c)²).
+fn compressibility_warnings<const D: usize>(
+    sc: &Scene,
+    spec: &GridSpec<D>,
+    materials: &[Material],
+    particles: &Particles<D>,
+    bodies: &[BodyInfo],
+) -> Vec<String> {
+    let g = vector::<D>(&sc.simulation.gravity);
+    let gravity = g.norm();
+    if gravity == 0.0 {
+        return Vec::new();
+    }
+    let up = -g / gravity;
+    let far = spec.origin + Vector::<D>::from_fn(|a, _| (spec.size[a] - 1) as Real * spec.dx);
+    let floor: Real = (0..D)
+        .map(|a| (up[a] * spec.origin[a]).min(up[a] * far[a]))
+        .sum();
+    let mut out = Vec::new();
+    for (def, body) in sc.bodies.iter().zip(bodies) {
+        let Some(Material::Fluid(fluid)) = materials.get(def.material_index) else {
+            continue;
+        };
+        let height = top_height(particles, body.particles.clone(), &up) - floor;
+        let flow = (2.0 * gravity * height).sqrt();
+        let sound = fluid.sound_speed(1.0);
+        if 10.0 * flow > sound {
+            out.push(format!(
+                "body \"{}\": 10 x the expected flow speed sqrt(2 g H) = 10 x {flow:.3} m/s \
+                 (H = {height:.3} m, its top above the bottom of the grid) exceeds the sound \
+                 speed {sound:.3} m/s of material \"{}\": the fluid is too compressible \
+                 (density errors of order (v/c)^2); a bulk_modulus of at least {:.3e} Pa \
+                 keeps c >= 10 sqrt(2 g H)",
+                def.name,
+                def.material,
+                fluid.density * 200.0 * gravity * height
+            ));
+        }
+    }
+    out
+}
+
 /// The `check` line on the phases of a multi-grid scene; none for one phase.
 fn phase_note(phases: u32, couplings: usize) -> Vec<String> {
     if phases > 1 {
@@ -191,8 +242,22 @@ where
         }
         particles.volume0 = v;
     }
+    let mut warnings = compressibility_warnings(sc, &spec, &materials, &particles, &bodies);
+    let gravity = vector::<D>(&sc.simulation.gravity);
+    for (i, (def, body)) in sc.bodies.iter().zip(&bodies).enumerate() {
+        if def.geostatic {
+            set_geostatic(
+                &mut particles,
+                body.particles.clone(),
+                &materials[def.material_index],
+                &gravity,
+                def.k0,
+            )
+            .map_err(|e| scene.error(&format!("bodies[{i}].geostatic"), e.to_string()))?;
+        }
+    }
     let dissolved = own.dissolution.as_ref().map(|d| d.into_index);
-    let mut warnings = unused_materials(sc, &particles, dissolved);
+    warnings.extend(unused_materials(sc, &particles, dissolved));
     warnings.extend(uncoupled_phases(sc, own));
     let solver = ExplicitSolver::new(
         spec,
@@ -295,5 +360,38 @@ mod tests {
                 "{text}"
             );
         }
+    }
+
+    #[test]
+    fn a_geostatic_body_is_built_in_its_stress_state() {
+        // A water column 0.2 m high on the floor of a 0.5 m box: p = ρ g (0.3 − y).
+        let text = "[simulation]\ndim = 2\nsteps = 1\n\n[grid]\nmin = [0.0, 0.0]\n\
+            max = [0.5, 0.5]\ndx = 0.05\n\n[[materials]]\nname = \"water\"\n\
+            preset = \"water\"\n\n[[bodies]]\nmaterial = \"water\"\nshape = \"box\"\n\
+            min = [0.1, 0.1]\nmax = [0.3, 0.3]\ngeostatic = true\n";
+        let scene = parse(Path::new("s.toml"), text).expect("valid scene");
+        let built = crate::build::build_dim::<2>(&scene).expect("built");
+        let ps = built.solver.particles();
+        let fluid = match &scene.materials()[0] {
+            Material::Fluid(f) => *f,
+            other => panic!("{other:?}"),
+        };
+        let js = ps.jacobian.as_deref().expect("J");
+        for p in 0..ps.len() {
+            let expected = 1000.0 * 9.81 * (0.3 - ps.x[p].y);
+            assert!((fluid.pressure(js[p]) - expected).abs() < 1e-6, "{p}");
+            // Mass and current volume as sampled: V⁰ J = (dx/2)².
+            assert!((ps.volume0[p] * js[p] - 0.025 * 0.025).abs() < 1e-15);
+        }
+        // A material too soft for its weight is an error at the body's key.
+        let soft = text.replace(
+            "preset = \"water\"\n",
+            "model = \"linear_elastic\"\ndensity = 1000.0\nE = 10.0\nnu = 0.3\n",
+        );
+        let scene = parse(Path::new("s.toml"), &soft).expect("valid scene");
+        let err = crate::build::build_dim::<2>(&scene).expect_err("too soft");
+        let text = err.to_string();
+        assert!(text.contains("`bodies[0].geostatic`"), "{text}");
+        assert_eq!(CliError::from(err).exit_code(), 2);
     }
 }

@@ -13,6 +13,7 @@ use crate::scene::{
     SamplingDef, Scene, ShapeDef, Simulation, TimeStepDef,
 };
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, DomainWalls};
+use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::sampling::{sample, Sampling, Shape};
 use mpm_core::{
     Dim, DimOps, GridSpec, Kernel, Material, Matrix, OnInstability, ParticleExtra, ParticleInit,
@@ -149,6 +150,19 @@ pub fn time_step_policy(s: &Simulation) -> TimeStepPolicy {
             dt_min,
         },
         TimeStepDef::Fixed { dt } => TimeStepPolicy::Fixed { dt },
+    }
+}
+
+/// The gravity ramp of `[simulation]`, if any.
+pub fn gravity_ramp(s: &Simulation) -> Option<GravityRamp> {
+    s.gravity_ramp.map(|duration| GravityRamp { duration })
+}
+
+/// The damping of `[simulation]` (off unless given).
+pub fn damping(s: &Simulation) -> Damping {
+    Damping {
+        local: s.local_damping.unwrap_or(0.0),
+        viscous: s.viscous_damping.unwrap_or(0.0),
     }
 }
 

@@ -3,8 +3,8 @@
 //! per-particle forces, and the scene keys of its set-up errors.
 
 use super::{
-    boundaries, fmt_vec, on_instability, setup_error, time_step_policy, unused_materials, vector,
-    Built, ErrorKeys, Start,
+    boundaries, damping, fmt_vec, gravity_ramp, on_instability, setup_error, time_step_policy,
+    unused_materials, vector, Built, ErrorKeys, Start,
 };
 use crate::error::SceneError;
 use crate::scene::{
@@ -18,10 +18,13 @@ use mpm_tlmpm::{
 };
 
 /// The scene keys of the TLMPM solver's parameter names (`SetupError::InvalidParameter`).
-const PARAMETER_KEYS: [(&str, &str); 12] = [
+const PARAMETER_KEYS: [(&str, &str); 15] = [
     ("grid.dx", "grid.dx"),
     ("grid.size", "grid.max"),
     ("gravity", "simulation.gravity"),
+    ("gravity ramp", "simulation.gravity_ramp"),
+    ("local damping", "simulation.local_damping"),
+    ("viscous damping", "simulation.viscous_damping"),
     ("contact.radius", "tlmpm.contact_radius"),
     ("reference_update.epsilon", "tlmpm.reference_update.epsilon"),
     ("reference_update.eta", "tlmpm.reference_update.eta"),
@@ -69,6 +72,8 @@ pub fn params<const D: usize>(
             _ => Transfer::Apic,
         },
         gravity: vector::<D>(&sc.simulation.gravity),
+        gravity_ramp: gravity_ramp(&sc.simulation),
+        damping: damping(&sc.simulation),
         time_step: time_step_policy(&sc.simulation),
         on_instability: on_instability(&sc.simulation),
         fixed: own

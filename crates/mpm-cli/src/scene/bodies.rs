@@ -1,6 +1,6 @@
 //! `[[bodies]]`: shapes filled with particles of one material, their sampling and initial
-//! velocity field. The keys `phase`, `initial_phi_eff` and `concentration` belong to the explicit
-//! solver (`super::explicit`), which resolves the last two.
+//! velocity field. The keys `phase`, `initial_phi_eff`, `concentration`, `geostatic` and `k0`
+//! belong to the explicit solver (`super::explicit`), which resolves all but the first.
 
 use super::materials::{material_index, MaterialDef};
 use super::Checker;
@@ -71,6 +71,10 @@ pub(crate) struct RawBody {
     pub(super) initial_phi_eff: Option<f64>,
     /// Read by the explicit solver's module.
     pub(super) concentration: Option<f64>,
+    /// Read by the explicit solver's module.
+    pub(super) geostatic: Option<bool>,
+    /// Read by the explicit solver's module.
+    pub(super) k0: Option<f64>,
 }
 
 /// One `[[bodies]]` entry.
@@ -109,6 +113,13 @@ pub struct BodyDef {
     /// the dissolving solid (dimensionless; with `[mixing]` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub concentration: Option<f64>,
+    /// Whether the body starts in its geostatic stress state (explicit solver only).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub geostatic: bool,
+    /// Earth-pressure coefficient K₀ = σ_h/σ_v of a geostatic solid body (dimensionless);
+    /// `None` for ν/(1 − ν) or a fluid.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k0: Option<f64>,
 }
 
 /// A body shape with its parameters.
@@ -474,6 +485,8 @@ fn resolve_body(
         about,
         initial_phi_eff: None,
         concentration: None,
+        geostatic: false,
+        k0: None,
     }
 }
 

@@ -1,7 +1,8 @@
 //! The scene module of `solver = "explicit"` (MLS-MPM, `mpm-explicit`): the tables only it
 //! reads, which are the multi-grid tables of [`super::multigrid`], and the keys of the common
-//! tables only it reads: the volume options and soft walls of `[simulation]`, and the phase,
-//! initial φ_eff and concentration of `[[bodies]]`.
+//! tables only it reads: the volume options, soft walls, gravity ramp and damping of
+//! `[simulation]`, and the phase, initial φ_eff, concentration and geostatic stress of
+//! `[[bodies]]`.
 
 use super::bodies::{phase_count, BodyDef, RawBody};
 use super::grid::{Grid, MAX_GRID_NODES};
@@ -9,6 +10,7 @@ use super::multigrid::{
     resolve_couplings, resolve_dissolution, resolve_mixing, resolve_porous, CouplingDef,
     DissolutionDef, MixingDef, PorousDef, RawCoupling, RawDissolution, RawMixing, RawPorous,
 };
+use super::simulation::Simulation;
 use super::{count_text, Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::{Columns, Material};
@@ -48,15 +50,21 @@ impl SolverTables for ExplicitScene {
         "simulation.volume_update",
         "simulation.initial_volume",
         "simulation.soft_walls",
+        "simulation.gravity_ramp",
+        "simulation.local_damping",
+        "simulation.viscous_damping",
         "bodies[].phase",
         "bodies[].initial_phi_eff",
         "bodies[].concentration",
+        "bodies[].geostatic",
+        "bodies[].k0",
     ];
     const PRINTED_LAST: bool = false;
     type Raw = RawExplicit;
 
     fn resolve(c: &mut Checker<'_>, raw: RawExplicit, common: Common<'_>) -> Self {
         let Common {
+            simulation,
             grid,
             materials,
             bodies,
@@ -87,6 +95,7 @@ impl SolverTables for ExplicitScene {
             mixing.as_ref(),
             dissolution.as_ref(),
         );
+        resolve_geostatic(c, raw_bodies, bodies, &core, simulation);
         ExplicitScene {
             couplings,
             porous,
@@ -212,6 +221,53 @@ fn resolve_body_state(
                 );
                 None
             }
+        };
+    }
+}
+
+/// The geostatic initial stress of every body: `geostatic` needs gravity along one axis and no
+/// gravity ramp; `k0` (≥ 0) only with `geostatic` and only for a solid.
+fn resolve_geostatic(
+    c: &mut Checker<'_>,
+    raw: &[RawBody],
+    bodies: &mut [BodyDef],
+    materials: &[Material],
+    simulation: &Simulation,
+) {
+    for (i, (r, b)) in raw.iter().zip(bodies.iter_mut()).enumerate() {
+        let k = |name: &str| format!("bodies[{i}].{name}");
+        b.geostatic = r.geostatic.unwrap_or(false);
+        if !b.geostatic {
+            c.not_applicable(&k("k0"), r.k0.is_some(), "without geostatic = true");
+            continue;
+        }
+        let axes = simulation.gravity.iter().filter(|g| **g != 0.0).count();
+        if axes != 1 {
+            c.err(
+                &k("geostatic"),
+                "needs gravity along one coordinate axis (the vertical), and non-zero",
+            );
+        }
+        c.not_applicable(
+            &k("geostatic"),
+            simulation.gravity_ramp.is_some(),
+            "with simulation.gravity_ramp (the ramp starts from zero gravity, a geostatic \
+             body starts under its full weight)",
+        );
+        let fluid = materials
+            .get(b.material_index)
+            .is_some_and(|m| matches!(m, Material::Fluid(_)));
+        b.k0 = match r.k0 {
+            Some(_) if fluid => {
+                c.not_applicable(
+                    &k("k0"),
+                    true,
+                    "to a fluid, whose stress is isotropic (K0 = 1)",
+                );
+                None
+            }
+            Some(k0) => Some(c.non_negative(&k("k0"), k0)),
+            None => None,
         };
     }
 }

@@ -1,6 +1,6 @@
-//! `[simulation]`: dimension, solver, duration, time-step control, gravity, what to do on an
-//! instability, the particle–grid transfer, and the explicit solver's volume options and soft
-//! walls.
+//! `[simulation]`: dimension, solver, duration, time-step control, gravity and its ramp, the
+//! damping of quasi-static runs, what to do on an instability, the particle–grid transfer, and
+//! the explicit solver's volume options and soft walls.
 
 use super::Checker;
 use crate::solvers::{self, SolverKind};
@@ -51,6 +51,9 @@ pub(crate) struct RawSimulation {
     dt_min: Option<f64>,
     dt: Option<f64>,
     gravity: Option<Vec<f64>>,
+    gravity_ramp: Option<f64>,
+    local_damping: Option<f64>,
+    viscous_damping: Option<f64>,
     on_instability: Option<InstabilityAction>,
     max_retries: Option<u32>,
     transfer: Option<TransferKind>,
@@ -82,6 +85,15 @@ pub struct Simulation {
     pub time_step: TimeStepDef,
     /// Gravitational acceleration (m/s²).
     pub gravity: Vec<f64>,
+    /// Time (s) over which gravity rises linearly from zero to full, if ramped.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gravity_ramp: Option<f64>,
+    /// Local non-viscous damping factor α (dimensionless, in [0, 1)), if on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub local_damping: Option<f64>,
+    /// Global viscous damping rate (1/s, ≥ 0), if on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub viscous_damping: Option<f64>,
     /// Reaction to a failed guard check.
     pub on_instability: InstabilityAction,
     /// Maximum dt/2 retries per step (with `on_instability = "retry"`).
@@ -226,6 +238,20 @@ pub(super) fn resolve_simulation(c: &mut Checker<'_>, s: &RawSimulation) -> Opti
             g
         }
     };
+    let gravity_ramp = s
+        .gravity_ramp
+        .map(|t| c.positive("simulation.gravity_ramp", t));
+    let local_damping = s.local_damping.map(|a| {
+        c.num(
+            "simulation.local_damping",
+            a,
+            |x| (0.0..1.0).contains(&x),
+            "must lie in [0, 1)",
+        )
+    });
+    let viscous_damping = s
+        .viscous_damping
+        .map(|r| c.non_negative("simulation.viscous_damping", r));
     let on_instability = s.on_instability.unwrap_or(InstabilityAction::Abort);
     let max_retries = match on_instability {
         InstabilityAction::Abort => {
@@ -270,6 +296,9 @@ pub(super) fn resolve_simulation(c: &mut Checker<'_>, s: &RawSimulation) -> Opti
         duration,
         time_step,
         gravity,
+        gravity_ramp,
+        local_damping,
+        viscous_damping,
         on_instability,
         max_retries,
         transfer,

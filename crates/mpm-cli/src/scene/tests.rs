@@ -305,3 +305,113 @@ fn the_printed_scene_has_the_solvers_tables_in_their_place() {
     let s = parsed(&explicit);
     assert_eq!(parsed(&s.scene.to_toml()).scene, s.scene);
 }
+
+#[test]
+fn rest_state_keys_resolve_print_and_reach_the_solvers() {
+    let text = scene(
+        "gravity_ramp = 0.5\nlocal_damping = 0.05\nviscous_damping = 2.0\n",
+        "",
+        "[[bodies]]\nmaterial = \"jelly\"\nshape = \"box\"\nmin = [0.3, 0.1]\nmax = [0.4, 0.2]\n",
+    );
+    let s = parsed(&text);
+    let sim = &s.scene.simulation;
+    assert_eq!(
+        (sim.gravity_ramp, sim.local_damping, sim.viscous_damping),
+        (Some(0.5), Some(0.05), Some(2.0))
+    );
+    let own = s.scene.explicit().expect("explicit tables");
+    let p = crate::build::explicit::params::<2>(&s, own);
+    assert_eq!(p.gravity_ramp.map(|r| r.duration), Some(0.5));
+    assert_eq!((p.damping.local, p.damping.viscous), (0.05, 2.0));
+    // Printed as given, and the printed scene resolves to the same one.
+    let toml = s.scene.to_toml();
+    assert!(
+        toml.contains("gravity_ramp = 0.5\nlocal_damping = 0.05\n"),
+        "{toml}"
+    );
+    assert_eq!(parsed(&toml).scene, s.scene);
+    // Absent keys: off, and not printed.
+    let plain = parsed(&scene("", "", ""));
+    let p = crate::build::explicit::params::<2>(&plain, plain.scene.explicit().expect("tables"));
+    assert!(p.damping.is_off() && p.gravity_ramp.is_none());
+    assert!(!plain.scene.to_toml().contains("damping"));
+    // A geostatic body with its K0.
+    let s = parsed(&scene("", "geostatic = true\nk0 = 0.6\n", ""));
+    assert!(s.scene.bodies[0].geostatic);
+    assert_eq!(s.scene.bodies[0].k0, Some(0.6));
+    assert!(s.scene.to_toml().contains("geostatic = true\nk0 = 0.6\n"));
+}
+
+#[test]
+fn bad_rest_state_keys_are_errors_at_their_line() {
+    let text = scene(
+        "gravity_ramp = 0.0\nlocal_damping = 1.0\nviscous_damping = -1.0\n",
+        "k0 = 0.5\n",
+        "",
+    );
+    let p = problems(&text);
+    let expected = [
+        ("simulation.gravity_ramp", "gravity_ramp", "positive"),
+        ("simulation.local_damping", "local_damping", "[0, 1)"),
+        ("simulation.viscous_damping", "viscous_damping", "≥ 0"),
+        ("bodies[0].k0", "k0", "without geostatic = true"),
+    ];
+    assert_eq!(p.len(), expected.len(), "{p:?}");
+    for ((key, line, message), (want, prefix, words)) in p.iter().zip(expected) {
+        assert_eq!((key.as_str(), *line), (want, line_of(&text, prefix)));
+        assert!(message.contains(words), "{message}");
+    }
+    // Geostatic needs axis-aligned gravity and no ramp; K0 is for solids.
+    let text = scene(
+        "gravity = [1.0, -9.81]\ngravity_ramp = 1.0\n",
+        "geostatic = true\n",
+        "",
+    );
+    let p = problems(&text);
+    assert_eq!(p.len(), 2, "{p:?}");
+    assert!(p
+        .iter()
+        .all(|(k, l, _)| k == "bodies[0].geostatic" && *l == line_of(&text, "geostatic")));
+    let fluid = scene("", "", "")
+        .replace("preset = \"jelly\"", "preset = \"water\"")
+        .replace(
+            "shape = \"box\"\n",
+            "shape = \"box\"\ngeostatic = true\nk0 = 0.5\n",
+        );
+    let p = problems(&fluid);
+    assert_eq!(p.len(), 1, "{p:?}");
+    assert_eq!(
+        (p[0].0.as_str(), p[0].1),
+        ("bodies[0].k0", line_of(&fluid, "k0"))
+    );
+    assert!(p[0].2.contains("isotropic"), "{}", p[0].2);
+}
+
+#[test]
+fn rest_state_keys_belong_to_the_solvers_that_have_them() {
+    // Implicit TLMPM has the ramp but no damping; explicit TLMPM has both.
+    let implicit = scene(
+        "solver = \"tlmpm\"\ngravity_ramp = 0.5\nlocal_damping = 0.05\n",
+        "",
+        "",
+    );
+    let p = problems(&implicit);
+    assert_eq!(p.len(), 1, "{p:?}");
+    assert_eq!(
+        (p[0].0.as_str(), p[0].1),
+        (
+            "simulation.local_damping",
+            line_of(&implicit, "local_damping")
+        )
+    );
+    let explicit = scene(
+        "solver = \"tlmpm\"\ngravity_ramp = 0.5\nlocal_damping = 0.05\nviscous_damping = 1.0\n",
+        "",
+        "[tlmpm]\nintegrator = \"explicit\"\n",
+    );
+    assert_eq!(parsed(&explicit).scene.simulation.local_damping, Some(0.05));
+    // The geostatic stress is the explicit solver's only.
+    let p = problems(&scene("solver = \"tlmpm\"", "geostatic = true\n", ""));
+    assert_eq!(p.len(), 1, "{p:?}");
+    assert_eq!(p[0].0, "bodies[0].geostatic");
+}

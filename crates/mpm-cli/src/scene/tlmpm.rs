@@ -176,7 +176,11 @@ pub struct TlmpmScene {
 
 impl SolverTables for TlmpmScene {
     const TABLES: &'static [&'static str] = &["tlmpm", "fixed", "loads"];
-    const KEYS: &'static [&'static str] = &[];
+    const KEYS: &'static [&'static str] = &[
+        "simulation.gravity_ramp",
+        "simulation.local_damping",
+        "simulation.viscous_damping",
+    ];
     const PRINTED_LAST: bool = true;
     type Raw = RawTlmpmTables;
 
@@ -251,6 +255,18 @@ pub(crate) fn resolve_solid_tables(
         .and_then(|t| t.integrator)
         .unwrap_or(IntegratorKind::Implicit);
     let implicit = integrator == IntegratorKind::Implicit;
+    for (key, present) in [
+        ("local_damping", common.simulation.local_damping.is_some()),
+        ("viscous_damping", common.simulation.viscous_damping.is_some()),
+    ] {
+        if implicit {
+            c.not_applicable(
+                &format!("simulation.{key}"),
+                present,
+                "with the implicit TLMPM integrator (tlmpm.integrator = \"explicit\" has it)",
+            );
+        }
+    }
     let opt = |present: bool, key: &str, c: &mut Checker<'_>| {
         if !implicit {
             c.not_applicable(

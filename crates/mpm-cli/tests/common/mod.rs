@@ -519,10 +519,12 @@ nu = 0.3
 [[materials]]
 name = "water"
 preset = "water"
+bulk_modulus = 2e5
 
 [[materials]]
 name = "solute"
 preset = "water"
+bulk_modulus = 2e5
 viscosity = 0.05
 
 [[bodies]]

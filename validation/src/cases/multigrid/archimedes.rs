@@ -3,9 +3,10 @@
 //! weight `ρ_s b h g` of the block equals the weight `ρ_f b d g` of the displaced water (2D, per
 //! unit depth).
 
-use super::{fill, mass_mean, slip_walls, tait, two_phases, Body};
+use super::{fill, mass_mean, tait, two_phases, Body};
 use crate::cases::{assemble, neo_hookean, sweep, RunError};
 use crate::report::{format_dx, nan_max, progress, timed_step, CaseResult, Mode, Run};
+use mpm_core::boundary::Boundaries;
 use mpm_core::{Columns, GridSpec, Particles, Real, TimeStepPolicy, Vector};
 use mpm_explicit::{
     Activation, ContactCoupling, CouplingKind, ExplicitParams, ExplicitSolver, Friction, Phases,
@@ -161,7 +162,13 @@ pub fn build(
         phases,
         ..ExplicitParams::default()
     };
-    let solver = ExplicitSolver::new(spec, params, materials, slip_walls(3), particles)?;
+    let solver = ExplicitSolver::new(
+        spec,
+        params,
+        materials,
+        Boundaries::slip_walls(3),
+        particles,
+    )?;
     Ok((solver, bottom_row))
 }
 

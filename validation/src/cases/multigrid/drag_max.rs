@@ -4,9 +4,10 @@
 //! the single-grid run with the same particles up to round-off (the sums are only grouped
 //! differently).
 
-use super::{fill, slip_walls, tait, two_phases, Body};
+use super::{fill, tait, two_phases, Body};
 use crate::cases::{assemble, neo_hookean, sweep, RunError};
 use crate::report::{nan_max, progress, timed_step, CaseResult, Mode, Run};
+use mpm_core::boundary::Boundaries;
 use mpm_core::{Columns, GridSpec, Particles, Real, TimeStepPolicy, Vector};
 use mpm_explicit::{CouplingKind, Drag, ExplicitParams, ExplicitSolver, Phases};
 use std::collections::BTreeMap;
@@ -116,7 +117,7 @@ pub fn build(
         spec,
         params,
         materials,
-        slip_walls(2),
+        Boundaries::slip_walls(2),
         particles,
     )?)
 }

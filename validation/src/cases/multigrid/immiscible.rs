@@ -12,9 +12,10 @@
 //! - the separation `s = (ȳ_light − ȳ_heavy)/(H/2)` of the centres of mass, H the fluid depth:
 //!   1 for equal-area layers fully separated, 0 side by side, −1 heavy on top.
 
-use super::{fill, mass_mean, slip_walls, tait, two_phases, Body};
+use super::{fill, mass_mean, tait, two_phases, Body};
 use crate::cases::{assemble, sweep, RunError};
 use crate::report::{format_dx, nan_max, progress, timed_step, CaseResult, Mode, Run};
+use mpm_core::boundary::Boundaries;
 use mpm_core::{Columns, GridSpec, Particles, Real, TimeStepPolicy, Vector};
 use mpm_explicit::{
     Activation, ContactCoupling, CouplingKind, ExplicitParams, ExplicitSolver, Friction, Phases,
@@ -137,7 +138,7 @@ pub fn build(
             velocity: Vector::<2>::zeros(),
         },
     );
-    let boundaries = slip_walls(3);
+    let boundaries = Boundaries::slip_walls(3);
     let params = ExplicitParams {
         gravity: v(0.0, -cfg.gravity),
         time_step: TimeStepPolicy::Adaptive {

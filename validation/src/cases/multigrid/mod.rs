@@ -17,7 +17,6 @@ pub mod momentum;
 pub mod wall_slide;
 
 use super::lattice;
-use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::{Material, Matrix, ParticleExtra, ParticleInit, Particles, Real, Vector};
 use mpm_explicit::{BuoyancyPenalty, Coupling, CouplingKind, Phases, PressureBuoyancy};
@@ -87,20 +86,6 @@ pub fn two_phases(kind: CouplingKind, buoyancy: Option<Real>) -> Phases {
             buoyancy: buoyancy.map(|strength| BuoyancyPenalty { strength }),
             pressure_buoyancy: PressureBuoyancy::Off,
         }],
-    }
-}
-
-/// Frictionless slip walls `thickness` node layers thick on every face of the grid.
-pub fn slip_walls(thickness: usize) -> Boundaries<2> {
-    Boundaries {
-        walls: Some(DomainWalls {
-            contact: Contact {
-                kind: ContactKind::Slip,
-                friction: 0.0,
-            },
-            thickness,
-        }),
-        colliders: Vec::new(),
     }
 }
 
