@@ -257,7 +257,10 @@ pub(crate) fn resolve_solid_tables(
     let implicit = integrator == IntegratorKind::Implicit;
     for (key, present) in [
         ("local_damping", common.simulation.local_damping.is_some()),
-        ("viscous_damping", common.simulation.viscous_damping.is_some()),
+        (
+            "viscous_damping",
+            common.simulation.viscous_damping.is_some(),
+        ),
     ] {
         if implicit {
             c.not_applicable(
