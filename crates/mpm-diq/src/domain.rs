@@ -1,7 +1,7 @@
 //! The fluid domain on the background grid: the wall box, cells, linear B-spline weights of a
 //! cell's corners, and the boundary quadrature points of walls and colliders (diq-mpm Eq. 30).
 
-use mpm_core::boundary::{Collider, ContactKind};
+use mpm_core::boundary::{Collider, ColliderShape, ContactKind};
 use mpm_core::{GridSpec, Real, Vector};
 
 /// A quadrature point of the wall operator `B` (Eq. 30): position, the fluid's outward unit
@@ -296,7 +296,7 @@ impl<const D: usize> Domain<D> {
                     let on_surface = x - n * phi;
                     out.push(WallSample {
                         node: self.nearest_node(&on_surface),
-                        face: collider_face::<D>(ci, &normal),
+                        face: collider_face::<D>(ci, &collider.shape, &normal),
                         cell: *m,
                         point: WallPoint {
                             x: on_surface,
@@ -334,19 +334,29 @@ impl<const D: usize> Domain<D> {
     }
 }
 
-/// The boundary-pressure piece of a point of collider `index` with outward fluid normal `n`:
-/// `2D (1 + index) + 2·axis + side`, with the axis and sign of `n`'s largest component. A node
-/// where two faces of a collider meet (a box's corner) gets one boundary pressure per face, as
-/// a wall corner does: with a single one, the row holds only the sum of the two normal
-/// velocities, and water at rest around a submerged box flowed in at its corners (measured at
-/// Δx = 1/32 m: 0.12 m/s after 1 s; with one row per face, 2e-8 m/s).
-pub fn collider_face<const D: usize>(index: usize, n: &Vector<D>) -> usize {
-    2 * D * (1 + index) + normal_class(n)
+/// The boundary-pressure piece of a point of collider `index` of shape `shape` with outward
+/// fluid normal `n`. A box has one piece per face at each node, `2D (1 + index) + 2·axis +
+/// side` with the axis and sign of `n`'s largest component, as a wall corner does: with a
+/// single one, a corner node's row holds only the sum of the two faces' normal velocities, and
+/// water at rest around a submerged box flowed in at its corners (measured at Δx = 1/32 m:
+/// 0.12 m/s after 1 s; with one row per face, 2e-8 m/s). A smooth shape (sphere, half-space)
+/// has one piece per node, `2D (1 + index)`: split by axis, a sphere's nodes near 45° got two
+/// nearly parallel rows, and the pour scene's pressure CG needed 4× the iterations.
+pub fn collider_face<const D: usize>(
+    index: usize,
+    shape: &ColliderShape<D>,
+    n: &Vector<D>,
+) -> usize {
+    let piece = match shape {
+        ColliderShape::Box { .. } => normal_class(n),
+        _ => 0,
+    };
+    2 * D * (1 + index) + piece
 }
 
 /// `2·axis + side` of the largest component of `n` (side 1 when it is positive): which of the
 /// `2D` axis directions `n` is closest to.
-pub fn normal_class<const D: usize>(n: &Vector<D>) -> usize {
+fn normal_class<const D: usize>(n: &Vector<D>) -> usize {
     let a = (0..D)
         .max_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs()))
         .unwrap_or(0);

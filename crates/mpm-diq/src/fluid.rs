@@ -682,42 +682,21 @@ where
             );
             volumes.push(vol);
         }
-        // Boundary samples: the static wall points of the fluid cells, and the collider points
-        // of the fluid cells and of the cells around them. A collider surface can run through
-        // cells that hold no particle while the nodes beside it carry fluid mass (under a
-        // sphere whose lowest point is a node); sampled in fluid cells only, those nodes had no
-        // boundary row and water at rest flowed into the sphere.
-        let mut samples: Vec<WallSample<D>> = fluid_cells
+        // Boundary samples in fluid cells: the static wall points and the collider points.
+        let per_cell: Vec<Vec<WallSample<D>>> = fluid_cells
             .par_iter()
-            .flat_map_iter(|&c| {
+            .map(|&c| {
                 let (start, list) = &self.wall_by_cell;
-                list[start[c]..start[c + 1]]
+                let mut out: Vec<WallSample<D>> = list[start[c]..start[c + 1]]
                     .iter()
                     .map(|&i| self.wall_points[i])
+                    .collect();
+                self.domain
+                    .collider_points(&self.domain.cell_multi(c), t, &mut out);
+                out
             })
             .collect();
-        if !self.domain.colliders.is_empty() {
-            let mut near: Vec<usize> = fluid_cells
-                .iter()
-                .flat_map(|&c| {
-                    self.domain
-                        .neighbour_cells(self.domain.cell_multi(c))
-                        .map(|m| self.domain.cell_index(&m))
-                })
-                .collect();
-            near.sort_unstable();
-            near.dedup();
-            let colliders: Vec<Vec<WallSample<D>>> = near
-                .par_iter()
-                .map(|&c| {
-                    let mut out = Vec::new();
-                    self.domain
-                        .collider_points(&self.domain.cell_multi(c), t, &mut out);
-                    out
-                })
-                .collect();
-            samples.extend(colliders.into_iter().flatten());
-        }
+        let mut samples: Vec<WallSample<D>> = per_cell.into_iter().flatten().collect();
         samples.sort_by_key(|s| (s.node, s.face));
         let mut w = [0.0; 8];
         let mut g = [Vector::<D>::zeros(); 8];
