@@ -340,8 +340,10 @@ impl<const D: usize> Domain<D> {
 /// single one, a corner node's row holds only the sum of the two faces' normal velocities, and
 /// water at rest around a submerged box flowed in at its corners (measured at Δx = 1/32 m:
 /// 0.12 m/s after 1 s; with one row per face, 2e-8 m/s). A smooth shape (sphere, half-space)
-/// has one piece per node, `2D (1 + index)`: split by axis, a sphere's nodes near 45° got two
-/// nearly parallel rows, and the pour scene's pressure CG needed 4× the iterations.
+/// has one piece per node, `2D (1 + index)`, its continuous normal's B0 piece: split by axis,
+/// a sphere's nodes near 45° get two nearly parallel rows (with that split, and the surface
+/// also sampled in the cells around the fluid, the pour scene's pressure CG took 3.5× the
+/// iterations).
 pub fn collider_face<const D: usize>(
     index: usize,
     shape: &ColliderShape<D>,
