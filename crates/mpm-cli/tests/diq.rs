@@ -202,6 +202,13 @@ fn solid_tables_are_checked_in_diq_scenes() {
             DIQ_COUPLED_2D.replace("[output]", "[diq]\ninterface_radius = 0.0\n\n[output]"),
             "`diq.interface_radius`: must lie in (0, 2]",
         ),
+        (
+            DIQ_COUPLED_2D.replace(
+                "name = \"block\"\nmodel = \"neo_hookean\"\nE = 1e5\nnu = 0.3\ndensity = 500.0",
+                "name = \"block\"\npreset = \"snow\"",
+            ),
+            "which are not coupled to the DIQ fluid yet",
+        ),
     ];
     for (i, (text, message)) in cases.iter().enumerate() {
         let scene = write(&d, &format!("s{i}.toml"), text);

@@ -395,7 +395,16 @@ pub(crate) fn resolve_solid_tables(
             | ModelDef::StableNeoHookean(s) => !matches!(s.plasticity, PlasticityDef::None),
             ModelDef::Tait(_) => false,
         };
-        if plastic && reference_update.is_none() {
+        if plastic && solver == "diq" {
+            c.err(
+                &format!("materials[{i}].plasticity"),
+                format!(
+                    "plastic material \"{}\" needs A-ULMPM reference updates, which are not \
+                     coupled to the DIQ fluid yet (diq-mpm §5.4)",
+                    m.name
+                ),
+            );
+        } else if plastic && reference_update.is_none() {
             c.err(
                 &format!("materials[{i}].plasticity"),
                 format!(
