@@ -4,6 +4,7 @@ pub mod bar;
 pub mod diq;
 pub mod diq_coupled;
 pub mod disk;
+pub mod granular_slope;
 pub mod hydrostatic;
 pub mod hydrostatic_cbgeo;
 pub mod mms;
@@ -70,6 +71,10 @@ pub static REGISTRY: &[&dyn Case] = &[
     &FnCase {
         name: hydrostatic_cbgeo::NAME,
         run: hydrostatic_cbgeo::case,
+    },
+    &FnCase {
+        name: granular_slope::NAME,
+        run: granular_slope::case,
     },
     &FnCase {
         name: multigrid::drag_max::NAME,

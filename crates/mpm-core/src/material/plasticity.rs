@@ -137,10 +137,24 @@ impl DruckerPrager {
         h0 + (h1 * q - h3) * (-h2 * q).exp()
     }
 
-    /// Friction coefficient α(q) = √(2/3) · 2 sin φ_F / (3 − sin φ_F) (dimensionless).
-    pub fn friction_coefficient(&self, q: Real) -> Real {
+    /// Friction coefficient α(q) of the cone `‖dev τ‖ + α tr τ ≤ 0` in `D` dimensions
+    /// (dimensionless), matched to Mohr–Coulomb with the friction angle φ_F(q):
+    ///
+    /// * 3D: `α = √(2/3) · 2 sin φ_F / (3 − sin φ_F)`, the cone through Mohr–Coulomb's
+    ///   compression meridian (Klár et al. 2016).
+    /// * 2D (plane strain): `α = sin φ_F / √2`. With the in-plane principal stresses τ₁, τ₂,
+    ///   `‖dev τ‖ = |τ₁ − τ₂|/√2` and `tr τ = τ₁ + τ₂`, so the cone is exactly Mohr–Coulomb's
+    ///   `(τ₁ − τ₂)/2 ≤ −sin φ_F (τ₁ + τ₂)/2` for the in-plane pair: the plane-strain criterion
+    ///   when the out-of-plane stress is the intermediate one, as it is in plane-strain plastic
+    ///   flow. (The 3D mapping used in 2D gives `sin φ_eff = √2 α₃D`, φ_eff = 17.1° for
+    ///   φ_F = 19.8° and 27.5° for 30°: sand that is too weak.)
+    pub fn friction_coefficient<const D: usize>(&self, q: Real) -> Real {
         let s = self.friction_angle(q).to_radians().sin();
-        (2.0 / 3.0 as Real).sqrt() * 2.0 * s / (3.0 - s)
+        if D == 2 {
+            s / (2.0 as Real).sqrt()
+        } else {
+            (2.0 / 3.0 as Real).sqrt() * 2.0 * s / (3.0 - s)
+        }
     }
 
     /// Yield function of an elastic deformation gradient `f_e` at hardening state `q` with Lamé
@@ -155,7 +169,7 @@ impl DruckerPrager {
         let eps = log_strain(&Dim::<D>::svd(f_e).sigma).add_scalar(-self.cohesion);
         let tr = eps.sum();
         let dev = eps.add_scalar(-tr / D as Real);
-        dev.norm() + volumetric_ratio::<D>(lame) * self.friction_coefficient(q) * tr
+        dev.norm() + volumetric_ratio::<D>(lame) * self.friction_coefficient::<D>(q) * tr
     }
 
     /// Return mapping of Klár et al. 2016 (Sec. 7.3) with the volume correction of Tampubolon et
@@ -183,8 +197,8 @@ impl DruckerPrager {
         let (projected, delta_gamma) = if tip {
             (Vector::<D>::zeros(), eps.norm())
         } else {
-            let dg =
-                dev_norm + volumetric_ratio::<D>(lame) * self.friction_coefficient(state.q) * tr;
+            let dg = dev_norm
+                + volumetric_ratio::<D>(lame) * self.friction_coefficient::<D>(state.q) * tr;
             if dg <= 0.0 || dev_norm == 0.0 {
                 (eps, 0.0)
             } else {
@@ -393,8 +407,49 @@ mod tests {
         assert!((dp.friction_angle(0.0) - 25.0).abs() < 1e-12);
         let s = 25.0_f64.to_radians().sin();
         let alpha = (2.0_f64 / 3.0).sqrt() * 2.0 * s / (3.0 - s);
-        assert!((dp.friction_coefficient(0.0) - alpha).abs() < 1e-14);
+        assert!((dp.friction_coefficient::<3>(0.0) - alpha).abs() < 1e-14);
         assert!((dp.friction_angle(1e3) - 35.0).abs() < 1e-12);
+    }
+
+    /// Plane strain: a trial state far outside the 2D cone returns to a state whose Mohr circle
+    /// of the in-plane Hencky Kirchhoff stresses touches the Mohr–Coulomb envelope
+    /// `|τ| = −σ tan φ`, i.e. radius `R = −sin φ · centre`, for the friction angle the state's
+    /// q gives.
+    #[test]
+    fn plane_strain_return_lies_on_mohr_coulomb() {
+        let lame = elastic().lame();
+        let dp = sand(0.0, false);
+        let mut rng = Lcg(7);
+        let mut checked = 0;
+        for _ in 0..200 {
+            // A compressive trial (tr ε < 0) with a large shear: one stretch above 1, one well
+            // below, so ‖dev ε‖ ≥ 0.15 exceeds the cone's reach at |tr ε| ≤ 0.17.
+            let a = 1.05 + 0.05 * rng.next();
+            let b = 0.80 + 0.05 * rng.next();
+            let theta = 3.0 * rng.next();
+            let rot = Matrix::<2>::new(theta.cos(), -theta.sin(), theta.sin(), theta.cos());
+            let f = rot * Matrix::<2>::new(a, 0.0, 0.0, b) * rot.transpose();
+            let mut state = PlasticState::default();
+            let fe = Plasticity::DruckerPrager(dp).project(&f, &mut state, &elastic());
+            if state.q == 0.0 {
+                continue;
+            }
+            let eps = log_strain(&Dim::<2>::svd(&fe).sigma);
+            let tr = eps.sum();
+            let tau = eps.map(|e| 2.0 * lame.mu * e + lame.lambda * tr);
+            let centre = 0.5 * (tau[0] + tau[1]);
+            let radius = 0.5 * (tau[0] - tau[1]).abs();
+            // The cone was taken at the friction angle of the old q (0 here).
+            let sin_phi = dp.friction_angle(0.0).to_radians().sin();
+            assert!(centre < 0.0, "compressive state expected, centre {centre}");
+            assert!(
+                (radius + sin_phi * centre).abs() <= 1e-9 * centre.abs(),
+                "R = {radius}, −sin φ · centre = {}",
+                -sin_phi * centre
+            );
+            checked += 1;
+        }
+        assert_eq!(checked, 200, "every trial lies outside the cone");
     }
 
     #[test]
