@@ -219,8 +219,9 @@ macro_rules! solver_seam {
                     .particle_forces
                     .clone_from(&self.core.particle_forces);
                 let n = new.core.particles.len();
-                new.core
-                    .restore(crate::core::state_from(state, n)?)
+                // The solver's own restore: the implicit one also drops the sparsity pattern
+                // built around the checkpoint's current positions.
+                new.restore(crate::core::state_from(state, n)?)
                     .map_err(crate::core::misfit)?;
                 *self = new;
                 Ok(())
