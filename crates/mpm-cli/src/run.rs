@@ -320,6 +320,8 @@ const ATTR_INITIAL_ENERGY_PARTS: [&str; 3] = [
     "initial_elastic_energy",
     "initial_potential_energy",
 ];
+/// Checkpoint attribute of the contact potential at t = 0, written when it is not zero.
+const ATTR_INITIAL_CONTACT_ENERGY: &str = "initial_contact_energy";
 
 impl<'a, const D: usize> Runner<'a, D>
 where
@@ -474,6 +476,7 @@ where
                 self.initial.kinetic_energy = p[0];
                 self.initial.elastic_energy = p[1];
                 self.initial.potential_energy = p[2];
+                self.initial.contact_energy = attr(ATTR_INITIAL_CONTACT_ENERGY).unwrap_or(0.0);
             }
         }
         for m in &mut self.monitors {
@@ -608,6 +611,9 @@ where
             i.potential_energy,
         ]) {
             attrs.push((n.to_string(), v));
+        }
+        if i.contact_energy != 0.0 {
+            attrs.push((ATTR_INITIAL_CONTACT_ENERGY.to_string(), i.contact_energy));
         }
         for m in &self.monitors {
             attrs.push((format!("{ATTR_INITIAL_MONITOR}{}", m.name), m.initial));
@@ -982,11 +988,11 @@ where
                     "drift": e_abs, "relative_drift": rel(e_abs, ini.total_energy().abs()),
                     "initial_parts": {
                         "kinetic": ini.kinetic_energy, "elastic": ini.elastic_energy,
-                        "potential": ini.potential_energy,
+                        "potential": ini.potential_energy, "contact": ini.contact_energy,
                     },
                     "final_parts": {
                         "kinetic": fin.kinetic_energy, "elastic": fin.elastic_energy,
-                        "potential": fin.potential_energy,
+                        "potential": fin.potential_energy, "contact": fin.contact_energy,
                     },
                 },
             },

@@ -667,11 +667,15 @@ fn tlmpm_keys_fit_their_solver() {
             "boundaries[0].friction",
             "friction = 0.3",
         ),
-        // FLIP, explicit-only simulation keys and Newton keys with the explicit integrator.
+        // A FLIP fraction outside [0, 1], explicit-only simulation keys and Newton keys with the
+        // explicit integrator.
         (
-            tl.replace("dt = 2e-3", "dt = 2e-3\ntransfer = \"flip\""),
-            "simulation.transfer",
-            "transfer =",
+            tl.replace(
+                "dt = 2e-3",
+                "dt = 2e-3\ntransfer = \"flip\"\nflip_blend = 1.5",
+            ),
+            "simulation.flip_blend",
+            "flip_blend",
         ),
         (
             tl.replace("dt = 2e-3", "dt = 2e-3\nvolume_update = \"reestimate\""),

@@ -136,6 +136,25 @@ fn resume_tlmpm_2d_is_bitwise() {
 }
 
 #[test]
+fn resume_tlmpm_persistent_2d_is_bitwise() {
+    // Persistent node velocities carry the state from step to step: the checkpoint holds them
+    // (`tlmpm_node_v`), so the resumed run does not restart from a P2G transfer. An elastic
+    // column (no reference updates, which would reset the node velocities) on penalty walls.
+    let t = TLMPM_SNOW_2D
+        .replace(
+            "gravity = [0.0, -9.81]",
+            "gravity = [0.0, -9.81]\ntransfer = \"persistent\"",
+        )
+        .replace("[tlmpm.reference_update]\nepsilon = 0.01\neta = 0.01\n", "")
+        .replace(
+            "preset = \"snow\"\nE = 1e4",
+            "model = \"neo_hookean\"\nE = 1e4\nnu = 0.2\ndensity = 400.0",
+        );
+    assert!(!t.contains("preset") && !t.contains("reference_update"));
+    check_resume("tlmpm-persistent", &t, 20, 40);
+}
+
+#[test]
 fn resume_diq_2d_is_bitwise() {
     // The DIQ fluid: particles, the solved pressure and the divergence of the last step.
     check_resume("diq", DIQ_2D, 30, 60);

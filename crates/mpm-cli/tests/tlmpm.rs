@@ -214,3 +214,99 @@ fn a_failing_newton_solve_exits_3_and_keeps_earlier_outputs() {
     let summary = std::fs::read_to_string(out.join("summary.json")).expect("summary");
     assert!(summary.contains("\"status\": \"instability\""), "{summary}");
 }
+
+/// A 0.2 m × 0.2 m Neo-Hookean block translating at 1 m/s with no gravity and no contact, for
+/// 20 steps of 1 ms, with transfer `TRANSFER`.
+const TRANSLATING_BLOCK: &str = r#"
+[simulation]
+dim = 2
+solver = "tlmpm"
+steps = 20
+dt = 1e-3
+gravity = [0.0, 0.0]
+TRANSFER
+
+[grid]
+min = [0.0, 0.0]
+max = [1.0, 0.6]
+dx = 0.05
+
+[tlmpm]
+contact = false
+
+[[materials]]
+name = "jelly"
+model = "neo_hookean"
+E = 1e5
+nu = 0.3
+density = 1000.0
+
+[[bodies]]
+name = "block"
+material = "jelly"
+shape = "box"
+min = [0.3, 0.2]
+max = [0.5, 0.4]
+per_axis = 2
+velocity = [1.0, 0.0]
+
+[output]
+interval_steps = 20
+fields = ["x"]
+"#;
+
+#[test]
+fn persistent_and_flip_transfers_run_in_tlmpm_and_persistent_is_refused_elsewhere() {
+    let d = tmpdir("tlmpm-transfers");
+    for (name, transfer) in [
+        ("persistent", "transfer = \"persistent\""),
+        ("flip", "transfer = \"flip\"\nflip_blend = 0.99"),
+    ] {
+        let out = run_scene(
+            &d,
+            &format!("{name}.toml"),
+            &TRANSLATING_BLOCK.replace("TRANSFER", transfer),
+        );
+        // A rigid translation is carried exactly: every particle moves 20 ms × 1 m/s, and the
+        // energy (kinetic only; no strain, no contact) does not drift.
+        let last = numbered_files(&out, "snap_")
+            .last()
+            .expect("snap")
+            .1
+            .clone();
+        let (t, x) = positions(&last);
+        let (_, x0) = positions(&numbered_files(&out, "snap_")[0].1);
+        assert!((t - 0.02).abs() < 1e-12);
+        for (a, b) in x.iter().zip(&x0) {
+            assert!((a[0] - b[0] - 0.02).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12);
+        }
+        let summary: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join("summary.json")).expect("summary"),
+        )
+        .expect("json");
+        let energy = &summary["conservation"]["energy"];
+        assert!(
+            energy["relative_drift"].as_f64().expect("drift") < 1e-12,
+            "{energy}"
+        );
+        assert_eq!(energy["final_parts"]["contact"].as_f64(), Some(0.0));
+    }
+    // "persistent" belongs to TLMPM: the explicit solver refuses it at the key, exit code 2.
+    let p = write(
+        &d,
+        "explicit.toml",
+        &WATER_2D.replace(
+            "gravity = [0.0, -9.81]",
+            "gravity = [0.0, -9.81]\ntransfer = \"persistent\"",
+        ),
+    );
+    let o = cli(&["check", &p.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    let line = line_of(&std::fs::read_to_string(&p).expect("scene"), "transfer =");
+    assert!(
+        err.contains("simulation.transfer") && err.contains(&format!(":{line}:")),
+        "{err}"
+    );
+    assert!(err.contains("solver = \"tlmpm\""), "{err}");
+}

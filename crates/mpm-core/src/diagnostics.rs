@@ -21,6 +21,9 @@ pub struct Diagnostics<const D: usize> {
     pub elastic_energy: Real,
     /// Gravitational potential energy −Σ m g·x (J), zero when `gravity` is zero.
     pub potential_energy: Real,
+    /// Potential energy of penalty contact springs (J): zero from [`Diagnostics::compute`];
+    /// solvers with penalty contact (TLMPM's Eq. 4) set it.
+    pub contact_energy: Real,
 }
 
 impl<const D: usize> Diagnostics<D> {
@@ -44,6 +47,7 @@ impl<const D: usize> Diagnostics<D> {
             kinetic_energy: 0.0,
             elastic_energy: 0.0,
             potential_energy: 0.0,
+            contact_energy: 0.0,
         };
         for p in 0..particles.len() {
             let (m, x, v) = (particles.mass[p], particles.x[p], particles.v[p]);
@@ -71,8 +75,8 @@ impl<const D: usize> Diagnostics<D> {
         d
     }
 
-    /// Total mechanical energy: kinetic + elastic + potential (J).
+    /// Total mechanical energy: kinetic + elastic + potential + contact (J).
     pub fn total_energy(&self) -> Real {
-        self.kinetic_energy + self.elastic_energy + self.potential_energy
+        self.kinetic_energy + self.elastic_energy + self.potential_energy + self.contact_energy
     }
 }

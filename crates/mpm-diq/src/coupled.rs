@@ -383,6 +383,7 @@ where
                 relative_def_grad: None,
                 base_def_grad: None,
                 reference_updates: 0,
+                node_velocities: None,
             })?;
         }
         if particles.def_grad.is_none() {

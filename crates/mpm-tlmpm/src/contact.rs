@@ -9,6 +9,10 @@
 //! which pushes the pair apart by the whole overlap in one step. Walls and colliders are bodies
 //! of infinite mass: `f_p = (m_p/Δt²)(r_p − d) n` where the signed distance `d < r_p`.
 //!
+//! Both are linear springs on the overlap, so the forces derive from the contact potential
+//! `U_c = Σ_pairs ½ (μ_pq/Δt²) δ_pq² + Σ_(p, obstacle) ½ (m_p/Δt²) δ_p²` (J), with
+//! `μ_pq = m_p m_q/(m_p + m_q)`, which the solvers add to the energy they report.
+//!
 //! Candidate pairs come from a cell list over the current positions
 //! ([`mpm_core::neighbors::CellList`], cells of edge `2 r_max`, particles sorted by cell, stable
 //! in index). Forces are gathered per particle in a fixed order,
@@ -86,6 +90,21 @@ pub struct ContactStats {
     pub obstacle_contacts: usize,
     /// Largest overlap `δ` of any pair or obstacle contact (m).
     pub max_overlap: Real,
+    /// Contact potential `U_c` of the penalty springs at these positions and this Δt (J; see
+    /// the module docs).
+    pub energy: Real,
+}
+
+impl ContactStats {
+    /// The totals of `self` and `other`.
+    fn merge(self, other: Self) -> Self {
+        Self {
+            pairs: self.pairs + other.pairs,
+            obstacle_contacts: self.obstacle_contacts + other.obstacle_contacts,
+            max_overlap: self.max_overlap.max(other.max_overlap),
+            energy: self.energy + other.energy,
+        }
+    }
 }
 
 /// The state of one particle that the contact pass reads.
@@ -145,16 +164,41 @@ impl<const D: usize> ContactStage<D> {
     }
 }
 
+impl<const D: usize> ContactStage<D> {
+    /// The contact potential `U_c` (J) at positions `x` (m) of particles of masses `mass` (kg),
+    /// for springs of a step of `dt` (s); a fresh contact pass that changes nothing.
+    pub fn energy(
+        &self,
+        reference: &ReferenceConfig<D>,
+        (x, mass): (&[Vector<D>], &[Real]),
+        obstacles: &[Obstacle<D>],
+        dt: Real,
+    ) -> Real {
+        let input = ContactInput {
+            x,
+            x_ref: reference.positions(),
+            mass,
+            radius: &self.radius,
+        };
+        ParticleContact::default()
+            .forces(&input, obstacles, dt, &mut Vec::new())
+            .energy
+    }
+}
+
 /// Cell list and scratch, reused between steps.
 #[derive(Clone, Debug, Default)]
 pub struct ParticleContact<const D: usize> {
     cells: CellList<D>,
-    /// Per particle: force, pairs with higher index, obstacle contacts, largest overlap.
-    found: Vec<(Vector<D>, usize, usize, Real)>,
+    /// Per particle: force, and its contacts (pairs with higher index, obstacle contacts, largest
+    /// overlap, its share of the contact potential).
+    found: Vec<(Vector<D>, ContactStats)>,
 }
 
 impl<const D: usize> ParticleContact<D> {
-    /// Contact forces f_p (N) on every particle for a step of `dt` (s), into `forces`.
+    /// Contact forces f_p (N) on every particle for a step of `dt` (s), into `forces`; the
+    /// statistics include the contact potential `U_c` (J), each pair's half counted at either
+    /// particle.
     pub fn forces(
         &mut self,
         input: &ContactInput<'_, D>,
@@ -170,7 +214,7 @@ impl<const D: usize> ParticleContact<D> {
         (0..n)
             .into_par_iter()
             .map(|p| {
-                let (mut f, mut pairs, mut walls, mut overlap) = (Vector::<D>::zeros(), 0, 0, 0.0);
+                let (mut f, mut c) = (Vector::<D>::zeros(), ContactStats::default());
                 let (xp, rp, mp) = (input.x[p], input.radius[p], input.mass[p]);
                 cells.for_each_candidate(p, |q| {
                     if q == p {
@@ -185,29 +229,30 @@ impl<const D: usize> ParticleContact<D> {
                     let mq = input.mass[q];
                     let scale = if dist > 0.0 { 1.0 - reach / dist } else { 0.0 };
                     f += d * (k * mp * mq / (mp + mq) * scale);
-                    overlap = Real::max(overlap, reach - dist);
-                    pairs += usize::from(q > p);
+                    let overlap = reach - dist;
+                    let mu = mp * mq / (mp + mq);
+                    c.max_overlap = Real::max(c.max_overlap, overlap);
+                    c.pairs += usize::from(q > p);
+                    c.energy += 0.25 * k * mu * overlap * overlap;
                 });
                 for o in obstacles {
                     let (dist, normal) = o.distance(&xp);
                     if dist < rp {
-                        f += normal * (k * mp * (rp - dist));
-                        overlap = Real::max(overlap, rp - dist);
-                        walls += 1;
+                        let overlap = rp - dist;
+                        f += normal * (k * mp * overlap);
+                        c.max_overlap = Real::max(c.max_overlap, overlap);
+                        c.obstacle_contacts += 1;
+                        c.energy += 0.5 * k * mp * overlap * overlap;
                     }
                 }
-                (f, pairs, walls, overlap)
+                (f, c)
             })
             .collect_into_vec(found);
         forces.clear();
         forces.extend(found.iter().map(|t| t.0));
         found
             .iter()
-            .fold(ContactStats::default(), |s, t| ContactStats {
-                pairs: s.pairs + t.1,
-                obstacle_contacts: s.obstacle_contacts + t.2,
-                max_overlap: s.max_overlap.max(t.3),
-            })
+            .fold(ContactStats::default(), |s, t| s.merge(t.1))
     }
 }
 
@@ -328,6 +373,36 @@ mod tests {
     }
 
     #[test]
+    fn contact_potential_of_a_pair() {
+        let (dt, r) = (1e-3, 0.1);
+        // Pair: overlap δ = 0.2 − 0.15 = 0.05 m, μ = 1·3/(1 + 3) = 0.75 kg:
+        // U = ½ μ δ²/dt² = ½ · 0.75 · 0.0025 / 1e-6 = 937.5 J.
+        let mut c = Cloud::<2> {
+            x: vec![Vector::<2>::new(0.0, 0.0), Vector::<2>::new(0.15, 0.0)],
+            x_ref: vec![Vector::<2>::new(0.0, 0.0), Vector::<2>::new(5.0, 0.0)],
+            mass: vec![1.0, 3.0],
+            radius: vec![r, r],
+        };
+        let mut f = Vec::new();
+        let stats = ParticleContact::default().forces(&c.input(), &[], dt, &mut f);
+        assert!((stats.energy - 937.5).abs() < 1e-9, "{}", stats.energy);
+        // The Eq. 4 force is −∂U/∂x_p: a central difference of U along x_1.
+        let h = 1e-7;
+        let mut energy_at = |x1: Real| {
+            c.x[1].x = x1;
+            ParticleContact::default()
+                .forces(&c.input(), &[], dt, &mut Vec::new())
+                .energy
+        };
+        let slope = (energy_at(0.15 + h) - energy_at(0.15 - h)) / (2.0 * h);
+        assert!(
+            (slope + f[1].x).abs() < 1e-6 * f[1].x.abs(),
+            "{slope} vs {}",
+            f[1].x
+        );
+    }
+
+    #[test]
     fn obstacles_push_particles_back_to_the_free_side() {
         let dt = 1e-3;
         let c = Cloud::<2> {
@@ -347,6 +422,8 @@ mod tests {
         let mut f = Vec::new();
         let stats = ParticleContact::default().forces(&c.input(), &[walls, ball], dt, &mut f);
         assert_eq!(stats.obstacle_contacts, 2);
+        // Contact potential: ½ · 2 · (0.03² + 0.02²)/dt² = 1300 J.
+        assert!((stats.energy - 1300.0).abs() < 1e-6, "{}", stats.energy);
         // Wall: overlap 0.03 m, force m·0.03/dt² along +x.
         assert!((f[0].x - 2.0 * 0.03 / (dt * dt)).abs() < 1e-9 && f[0].y == 0.0);
         // Sphere below: overlap 0.05 + 0.05 − 0.08 = 0.02 m, pushed up.

@@ -6,16 +6,16 @@ use crate::error::{NewtonError, StepError};
 use crate::params::{ImplicitParams, TlmpmParams, Transfer};
 use crate::potential::Constitutive;
 use crate::reference::{Constraints, ReferenceConfig};
-use crate::transfer::{self, Update};
+use crate::transfer::{self, FlipBlend, Update};
 use crate::{ExplicitTlmpm, ImplicitTlmpm};
 use mpm_core::material::{ElasticModel, Lame, Plasticity};
 use mpm_core::quasistatic::gravity_at;
 use mpm_core::solver::{nan_max, RestoreError, SolveInfo, SolverState, StepInfo};
 use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::{
-    columns, retry_halving, Column, Diagnostics, Dim, DimOps, GridSpec, Location, Material, Matrix,
-    Particles, Real, SetupError, Solver, Stage, StagePlan, StepStart, TimeStepPolicy, Vector,
-    Violation,
+    columns, retry_halving, Column, ColumnData, Diagnostics, Dim, DimOps, GridSpec, Location,
+    Material, Matrix, Particles, Real, SetupError, Solver, Stage, StagePlan, StepStart,
+    TimeStepPolicy, Vector, Violation,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -60,6 +60,11 @@ pub struct TlmpmState<const D: usize> {
     pub base_def_grad: Option<Vec<Matrix<D>>>,
     /// Number of A-ULMPM reference updates so far.
     pub reference_updates: u64,
+    /// [`Transfer::Persistent`] only: the node velocities of the last accepted step (m/s), one
+    /// per active node of the reference grid in its numbering; `None` when the next step starts
+    /// with a P2G transfer (before the first step, after a reference update or a change of the
+    /// particle velocities).
+    pub node_velocities: Option<Vec<Vector<D>>>,
 }
 
 /// What both TLMPM integrators offer beyond the [`Solver`] interface: applied per-particle
@@ -100,6 +105,8 @@ const REFERENCE_X: &str = "tlmpm_reference_x";
 const RELATIVE_F: &str = "tlmpm_relative_F";
 /// Checkpoint column of the A-ULMPM base deformation gradients.
 const BASE_F: &str = "tlmpm_base_F";
+/// Checkpoint column of the persistent node velocities (one row per active reference node).
+const NODE_V: &str = "tlmpm_node_v";
 /// Checkpoint attribute of the number of A-ULMPM reference updates.
 const ATTR_REFERENCE_UPDATES: &str = "tlmpm_reference_updates";
 
@@ -119,6 +126,13 @@ pub(crate) fn state_from<const D: usize>(
     let mats = |name| -> Result<Option<Vec<Matrix<D>>>, String> {
         Ok(columns::f64_values(cols, name, &[n, D, D])?.map(columns::to_matrices::<D>))
     };
+    let node_velocities = match columns::find(cols, NODE_V).map(|c| &c.data) {
+        None => None,
+        Some(ColumnData::F64 { values, shape }) if shape.len() == 2 && shape[1] == D => {
+            Some(columns::to_vectors::<D>(values))
+        }
+        Some(_) => return Err(format!("column `{NODE_V}` is not an [N, {D}] f64 column").into()),
+    };
     Ok(TlmpmState {
         time: state.time,
         steps: state.steps,
@@ -126,6 +140,7 @@ pub(crate) fn state_from<const D: usize>(
         relative_def_grad: mats(RELATIVE_F)?,
         base_def_grad: mats(BASE_F)?,
         reference_updates: state.attr(ATTR_REFERENCE_UPDATES).map_or(0, |v| v as u64),
+        node_velocities,
     })
 }
 
@@ -175,7 +190,7 @@ macro_rules! solver_seam {
             }
 
             fn diagnostics(&self) -> Diagnostics<D> {
-                self.core.diagnostics()
+                self.core.diagnostics(|| $ty::stable_dt(self))
             }
 
             fn plan(&self) -> mpm_core::StagePlan {
@@ -204,8 +219,9 @@ macro_rules! solver_seam {
                     .particle_forces
                     .clone_from(&self.core.particle_forces);
                 let n = new.core.particles.len();
-                new.core
-                    .restore(crate::core::state_from(state, n)?)
+                // The solver's own restore: the implicit one also drops the sparsity pattern
+                // built around the checkpoint's current positions.
+                new.restore(crate::core::state_from(state, n)?)
                     .map_err(crate::core::misfit)?;
                 *self = new;
                 Ok(())
@@ -318,9 +334,10 @@ macro_rules! shared_accessors {
             self.core.steps
         }
 
-        /// Mass, momenta and energies of the particles.
+        /// Mass, momenta and energies of the particles, and with contact on the contact
+        /// potential of its penalty springs (J).
         pub fn diagnostics(&self) -> Diagnostics<D> {
-            self.core.diagnostics()
+            self.core.diagnostics(|| self.stable_dt())
         }
     };
 }
@@ -418,11 +435,13 @@ where
             relative_def_grad: a.map(|a| a.rel.clone()),
             base_def_grad: a.and_then(|a| a.base.clone()),
             reference_updates: a.map_or(0, |a| a.updates),
+            node_velocities: (!self.node_velocity.is_empty()).then(|| self.node_velocity.clone()),
         }
     }
 
-    /// The whole state as named columns: the particle columns, the reference positions and the
-    /// A-ULMPM deformation gradients, and the count of reference updates.
+    /// The whole state as named columns: the particle columns, the reference positions, the
+    /// A-ULMPM deformation gradients and the persistent node velocities where they exist, and
+    /// the count of reference updates.
     pub fn checkpoint(&self) -> SolverState {
         let st = self.state();
         let mut out = SolverState::of_particles(&self.particles, self.time, self.steps);
@@ -433,6 +452,9 @@ where
         }
         if let Some(b) = &st.base_def_grad {
             out.columns.push(Column::matrices(BASE_F, "1", b));
+        }
+        if let Some(v) = &st.node_velocities {
+            out.columns.push(Column::vectors(NODE_V, "m/s", v));
         }
         out.attrs.push((
             ATTR_REFERENCE_UPDATES.to_string(),
@@ -452,8 +474,8 @@ where
 
     /// Restores a state saved by [`Core::state`] for the current particles: rebuilds the
     /// reference configuration at `state.reference_positions` and the Dirichlet numbering,
-    /// and sets the A-ULMPM columns. Persistent node velocities are dropped, so the next step
-    /// starts with a P2G transfer.
+    /// and sets the A-ULMPM columns and the persistent node velocities (without them the next
+    /// step starts with a P2G transfer).
     pub fn restore(&mut self, state: TlmpmState<D>) -> Result<(), SetupError> {
         let n = self.particles.len();
         let mismatch = |name: &'static str, len: usize| SetupError::InvalidParameter {
@@ -500,6 +522,24 @@ where
         )?;
         self.constraints = Constraints::new(&self.reference, &self.params.fixed);
         self.node_velocity.clear();
+        if let Some(v) = state.node_velocities {
+            if self.params.transfer != Transfer::Persistent {
+                return Err(SetupError::InvalidSetting {
+                    setting: "transfer".into(),
+                    reason: "the saved state has persistent node velocities, the solver's \
+                             transfer is not persistent"
+                        .into(),
+                });
+            }
+            if v.len() != self.reference.num_nodes() {
+                return Err(SetupError::InvalidParameter {
+                    name: "node_velocities",
+                    value: v.len() as Real,
+                    reason: "must have one entry per active node of the reference grid",
+                });
+            }
+            self.node_velocity = v;
+        }
         self.time = state.time;
         self.steps = state.steps;
         Ok(())
@@ -520,7 +560,12 @@ where
             Stage::P2G,
             format!(
                 "{} transfer on the reference grid ({} fixed region(s)){}",
-                format!("{:?}", p.transfer).to_uppercase(),
+                match p.transfer {
+                    Transfer::Apic => "APIC".to_string(),
+                    Transfer::Pic => "PIC".to_string(),
+                    Transfer::Flip { blend } => format!("FLIP/PIC blend {blend}"),
+                    Transfer::Persistent => "PERSISTENT".to_string(),
+                },
                 p.fixed.len(),
                 if p.transfer == Transfer::Persistent {
                     "; first step only, node velocities persist"
@@ -666,11 +711,20 @@ where
     /// deformation gradients and plastic return mapping (particles are not modified).
     pub fn grid_to_particles(&mut self, dt: Real) -> Result<(), Failure> {
         let rel = split_law(&self.models, &self.particles, self.adaptive.as_ref()).1;
+        let flip = match self.params.transfer {
+            Transfer::Flip { blend } => Some(FlipBlend {
+                alpha: blend,
+                grid_velocity: &self.grid_velocity,
+                v: &self.particles.v,
+            }),
+            _ => None,
+        };
         transfer::grid_to_particles(
             &self.reference,
             &self.displacement,
             dt,
             (&self.particles.x, rel),
+            flip,
             &mut self.updates,
         );
         let (materials, material) = (&self.materials, &self.particles.material);
@@ -834,9 +888,26 @@ where
     }
 
     /// Mass, momenta and energies of the particles (the affine field is a reference-space
-    /// gradient, so it adds no spin term).
-    pub fn diagnostics(&self) -> Diagnostics<D> {
-        Diagnostics::compute(&self.particles, &self.materials, None, &self.params.gravity)
+    /// gradient, so it adds no spin term), with contact on also the contact potential of Eq. 4's
+    /// springs at the current positions (J), whose stiffness `μ_pq/Δt²` is that of the next
+    /// step: the fixed Δt, or `min(stable(), dt_max)` with `stable` the solver's adaptive bound
+    /// (s).
+    pub fn diagnostics(&self, stable: impl FnOnce() -> Real) -> Diagnostics<D> {
+        let mut d =
+            Diagnostics::compute(&self.particles, &self.materials, None, &self.params.gravity);
+        if let (Some(stage), Some(params)) = (&self.contact, &self.params.contact) {
+            let dt = match self.params.time_step {
+                TimeStepPolicy::Fixed { dt } => dt,
+                TimeStepPolicy::Adaptive { dt_max, .. } => stable().min(dt_max),
+            };
+            d.contact_energy = stage.energy(
+                &self.reference,
+                (&self.particles.x, &self.particles.mass),
+                &params.obstacles,
+                dt,
+            );
+        }
+        d
     }
 }
 
@@ -884,6 +955,11 @@ fn validate<const D: usize>(
     }
     if let Some((name, value, reason)) = params.damping.invalid() {
         return invalid(name, value, reason);
+    }
+    if let Transfer::Flip { blend } = params.transfer {
+        if !(0.0..=1.0).contains(&blend) {
+            return invalid("flip blend", blend, "must lie in [0, 1]");
+        }
     }
     if let Some(r) = params.gravity_ramp {
         if !(r.duration > 0.0 && r.duration.is_finite()) {

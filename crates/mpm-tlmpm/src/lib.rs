@@ -39,7 +39,9 @@
 //! backward Euler's unconditional stability does not extend to contact. The penalty stiffness
 //! `μ_pq/Δt²` of Eq. 4 gives `ω Δt = 1` per contact, inside the symplectic-Euler bound of 2 for
 //! any Δt, so contact does not bound the step; energy is not guaranteed to decrease through a
-//! collision, and in practice the transfers dissipate part of it.
+//! collision, and in practice the transfers dissipate part of it (APIC, PIC and FLIP;
+//! [`Transfer::Persistent`] keeps node velocities and little is lost). The diagnostics count
+//! the springs' potential `½ μ_pq δ²/Δt²` in the energy.
 //!
 //! **A-ULMPM** ([`ReferenceUpdate`], optional; §5.4). After an accepted step, when enough
 //! particles changed volume since the reference configuration, the reference moves to the current

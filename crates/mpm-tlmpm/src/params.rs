@@ -6,7 +6,7 @@ use mpm_core::{Kernel, OnInstability, Real, TimeStepPolicy, Vector};
 use serde::{Deserialize, Serialize};
 
 /// Particle–grid velocity transfer on the reference grid.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Transfer {
     /// APIC on the reference grid: particles carry `C_p = ∇^X V` (1/s), the velocity gradient
@@ -16,6 +16,18 @@ pub enum Transfer {
     Apic,
     /// PIC: only `m_p v_p` is transferred (dissipative).
     Pic,
+    /// FLIP/PIC blend, the explicit solver's convention (`mpm_explicit::Transfer::Flip`): P2G
+    /// transfers `m_p v_p` only (as PIC), and G2P sets
+    /// `v_p ← α (v_p + Σ_i W_ip (v_i^{n+1} − v̂_i)) + (1 − α) Σ_i W_ip v_i^{n+1}` (m/s), with
+    /// `v̂_i` the node velocities after P2G and `v_i^{n+1}` those after the grid solve. Positions,
+    /// `F_p` and `C_p = ∇^X V` (1/s, stored but not transferred) follow the node displacements
+    /// as with the other transfers. `α = 0` is PIC; `α = 1` carries each particle's own
+    /// velocity plus the grid's velocity increment, so velocity fields the grid cannot represent
+    /// survive (FLIP's noise is the price).
+    Flip {
+        /// FLIP fraction α ∈ [0, 1] (dimensionless; 0.95–0.99 typical).
+        blend: Real,
+    },
     /// Node velocities persist from step to step and P2G (APIC form) runs only on the first
     /// step or after the particle velocities were changed from outside. The reference grid is
     /// Lagrangian, so this is a B-spline finite-element method with particle quadrature: it has

@@ -293,3 +293,43 @@ fn contact_results_are_bitwise_identical_for_1_and_4_threads() {
         );
     }
 }
+
+#[test]
+fn diagnostics_count_the_contact_potential() {
+    // A block 0.1 m × 0.1 m at rest (h = 0.025 m, m_p = 0.625 kg) whose bottom row (4
+    // particles at y = 0.0125 m) overlaps the floor y = 0 by δ = r − 0.0125 = 0.0125 m:
+    // U_c = 4 · ½ m δ²/dt² = 4 · ½ · 0.625 · 0.0125² / (1e-4)² = 19531.25 J.
+    let floor = Obstacle::Collider(ColliderShape::HalfSpace {
+        point: Vector::<2>::zeros(),
+        normal: Vector::<2>::new(0.0, 1.0),
+    });
+    let particles = block(
+        (Vector::<2>::new(0.4, 0.0), Vector::<2>::new(0.5, 0.1)),
+        DX / 2.0,
+        1000.0,
+        |_| Vector::<2>::zeros(),
+    );
+    for implicit in [false, true] {
+        let s = Solver::new(
+            implicit,
+            contact_params(vec![floor]),
+            particles.clone(),
+            1e-4,
+        );
+        let (d, dt) = match &s {
+            Solver::Explicit(e) => (e.diagnostics(), 1e-4),
+            Solver::Implicit(i) => (i.diagnostics(), 5e-4),
+        };
+        let expected = 4.0 * 0.5 * 0.625 * 0.0125 * 0.0125 / (dt * dt);
+        assert!(
+            (d.contact_energy - expected).abs() < 1e-9 * expected,
+            "{}: {} J, expected {expected} J",
+            s.name(),
+            d.contact_energy
+        );
+        assert_eq!(
+            d.total_energy(),
+            d.kinetic_energy + d.elastic_energy + d.potential_energy + d.contact_energy
+        );
+    }
+}

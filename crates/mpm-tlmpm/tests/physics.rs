@@ -343,19 +343,19 @@ where
         let (grid, params, particles) = spinning_block::<D>(7, 0.05);
         let params = TlmpmParams {
             time_step: TimeStepPolicy::Fixed {
-                dt: if which == 0 { 5e-4 } else { 5e-3 },
+                dt: if matches!(which, 0 | 4) { 5e-4 } else { 5e-3 },
             },
-            transfer: if which == 3 {
-                Transfer::Persistent
-            } else {
-                Transfer::Apic
+            transfer: match which {
+                3 => Transfer::Persistent,
+                4 | 5 => Transfer::Flip { blend: 0.97 },
+                _ => Transfer::Apic,
             },
             ..params
         };
         let materials = vec![common::neo_hookean(1e5, 0.3, 1000.0)];
         let implicit = match which {
-            0 => None,
-            1 | 3 => Some(ImplicitParams::default()),
+            0 | 4 => None,
+            1 | 3 | 5 => Some(ImplicitParams::default()),
             _ => Some(ImplicitParams {
                 linear: LinearSolver::Cg {
                     max_iterations: 200,
@@ -375,8 +375,8 @@ where
 #[test]
 fn results_are_bitwise_identical_for_1_and_4_threads() {
     // 0: explicit, 1: implicit Cholesky, 2: implicit CG, 3: implicit with persistent node
-    // velocities.
-    for which in 0..4 {
+    // velocities, 4 and 5: explicit and implicit with the FLIP blend.
+    for which in 0..6 {
         let (one, four) = (run_threads::<3>(1, which), run_threads::<3>(4, which));
         assert_eq!(one, four, "solver variant {which}");
         let (one, four) = (run_threads::<2>(1, which), run_threads::<2>(4, which));
@@ -587,4 +587,56 @@ fn the_implicit_solver_rejects_damping() {
         matches!(err, mpm_core::SetupError::InvalidParameter { name: "local damping", value, .. } if value == 0.05),
         "{err}"
     );
+}
+
+/// The spinning block of [`spinning_block`] (no clamp) for `steps` steps with `transfer`: the
+/// particles and the kinetic energy at the end (J).
+fn spin(implicit: bool, transfer: Transfer, steps: usize) -> (Particles<2>, Real) {
+    let (grid, params, particles) = spinning_block::<2>(3, 0.0);
+    let params = TlmpmParams {
+        transfer,
+        gravity: Vector::<2>::zeros(),
+        fixed: Vec::new(),
+        time_step: TimeStepPolicy::Fixed {
+            dt: if implicit { 5e-3 } else { 5e-4 },
+        },
+        ..params
+    };
+    let materials = vec![common::neo_hookean(1e5, 0.3, 1000.0)];
+    let mut s = Solver::new(
+        implicit.then(ImplicitParams::default),
+        (grid, params),
+        materials,
+        particles,
+    );
+    for _ in 0..steps {
+        s.step();
+    }
+    let p = s.particles().clone();
+    let ke =
+        p.v.iter()
+            .zip(&p.mass)
+            .map(|(v, m)| 0.5 * m * v.norm_squared())
+            .sum();
+    (p, ke)
+}
+
+#[test]
+fn flip_blend_zero_is_pic_and_flip_keeps_more_kinetic_energy() {
+    for implicit in [false, true] {
+        let steps = if implicit { 20 } else { 200 };
+        let (pic, ke_pic) = spin(implicit, Transfer::Pic, steps);
+        let (flip0, _) = spin(implicit, Transfer::Flip { blend: 0.0 }, steps);
+        assert_eq!(pic, flip0, "implicit: {implicit}: FLIP with α = 0 is PIC");
+        // The block spins at 2 rad/s and expands at 0.5 1/s: PIC loses the part of the
+        // velocity field the grid cannot hold at every step; FLIP keeps it.
+        let (_, ke_flip) = spin(implicit, Transfer::Flip { blend: 0.99 }, steps);
+        let (_, ke0) = spin(implicit, Transfer::Pic, 0);
+        println!(
+            "implicit {implicit}: KE/KE0 after {steps} steps: PIC {:.4}, FLIP 0.99 {:.4}",
+            ke_pic / ke0,
+            ke_flip / ke0
+        );
+        assert!(ke_flip > 0.3 * ke0 && ke_pic < 0.01 * ke0);
+    }
 }

@@ -10,7 +10,7 @@ use mpm_core::material::{ElasticModel, Lame, Plasticity, Snow, SolidMaterial};
 use mpm_core::{Columns, GridSpec, Material, Particles, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, ExplicitTlmpm, ImplicitParams, ImplicitTlmpm, Obstacle,
-    ReferenceUpdate, TlmpmParams, TlmpmState,
+    ReferenceUpdate, TlmpmParams, TlmpmState, Transfer,
 };
 
 /// A snow column of 0.1 m × 0.2 m (Δx = 0.02 m) collapsing on a penalty floor with A-ULMPM.
@@ -132,4 +132,51 @@ fn resumed_explicit_run_is_bitwise_identical() {
 #[test]
 fn resumed_implicit_run_is_bitwise_identical() {
     check(implicit_run, 40, "implicit");
+}
+
+/// An elastic block falling on the penalty floor of [`setup`] with persistent node velocities
+/// (no A-ULMPM, so the node velocities persist across the split).
+fn persistent_run(start: Option<Saved>, steps: usize, drop_nodes: bool) -> Saved {
+    let (grid, params, _, mut particles) = setup(false);
+    particles.plastic = None;
+    let params = TlmpmParams {
+        transfer: Transfer::Persistent,
+        reference_update: None,
+        ..params
+    };
+    let jelly = Material::Solid(SolidMaterial {
+        density: 400.0,
+        elastic: ElasticModel::FixedCorotated(Lame::from_young_poisson(1e4, 0.2)),
+        plasticity: Plasticity::None,
+    });
+    let (particles, state) = match start {
+        Some((p, s)) => (p, Some(s)),
+        None => (particles, None),
+    };
+    let mut s = ExplicitTlmpm::new(grid, params, vec![jelly], particles).unwrap();
+    if let Some(mut state) = state {
+        if drop_nodes {
+            state.node_velocities = None;
+        }
+        s.restore(state).unwrap();
+    }
+    for _ in 0..steps {
+        s.step().unwrap();
+    }
+    (s.particles().clone(), s.state())
+}
+
+#[test]
+fn resumed_persistent_run_is_bitwise_identical() {
+    let straight = persistent_run(None, 300, false);
+    let first = persistent_run(None, 150, false);
+    let nodes = first.1.node_velocities.as_ref().map_or(0, Vec::len);
+    assert!(nodes > 0, "the state holds the node velocities");
+    let resumed = persistent_run(Some(first.clone()), 150, false);
+    assert_eq!(straight.1, resumed.1, "state");
+    assert_eq!(straight.0, resumed.0, "particles");
+    // Without them the resumed run restarts from a P2G transfer and departs from the straight
+    // one.
+    let restarted = persistent_run(Some(first), 150, true);
+    assert_ne!(straight.0.x, restarted.0.x);
 }

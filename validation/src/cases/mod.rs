@@ -109,6 +109,10 @@ pub static REGISTRY: &[&dyn Case] = &[
         run: tlmpm::two_disks_contact::case,
     },
     &FnCase {
+        name: tlmpm::two_disks_energy::NAME,
+        run: tlmpm::two_disks_energy::case,
+    },
+    &FnCase {
         name: tlmpm::hanging_block_extreme::NAME,
         run: tlmpm::hanging_block_extreme::case,
     },

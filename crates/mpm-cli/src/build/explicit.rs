@@ -9,7 +9,7 @@ use super::{
 use crate::error::SceneError;
 use crate::scene::{
     CouplingDef, CouplingKindDef, DragDef, ExplicitScene, FrictionModel, InitialVolume,
-    LoadedScene, Scene, TransferKind,
+    LoadedScene, Scene, TransferKind, FLIP_BLEND_DEFAULT,
 };
 use mpm_core::geostatic::{set_geostatic, top_height};
 use mpm_core::material::{Interaction, Scaling};
@@ -61,8 +61,11 @@ pub fn params<const D: usize>(scene: &LoadedScene, own: &ExplicitScene) -> Expli
             TransferKind::Apic => Transfer::Apic,
             TransferKind::Pic => Transfer::Pic,
             TransferKind::Flip => Transfer::Flip {
-                blend: s.flip_blend.unwrap_or(0.95),
+                blend: s.flip_blend.unwrap_or(FLIP_BLEND_DEFAULT),
             },
+            TransferKind::Persistent => {
+                unreachable!("the explicit scene module refuses transfer = \"persistent\"")
+            }
         },
         gravity: vector::<D>(&s.gravity),
         gravity_ramp: gravity_ramp(s),

@@ -9,7 +9,7 @@ use super::{
 use crate::error::SceneError;
 use crate::scene::{
     BoundaryGeometry, IntegratorKind, LinearSolverKind, LoadDef, LoadedScene, TlmpmDef, TlmpmScene,
-    TransferKind,
+    TransferKind, FLIP_BLEND_DEFAULT,
 };
 use mpm_core::{Dim, DimOps, GridSpec, Particles, Vector};
 use mpm_tlmpm::{
@@ -18,9 +18,10 @@ use mpm_tlmpm::{
 };
 
 /// The scene keys of the TLMPM solver's parameter names (`SetupError::InvalidParameter`).
-const PARAMETER_KEYS: [(&str, &str); 15] = [
+const PARAMETER_KEYS: [(&str, &str); 16] = [
     ("grid.dx", "grid.dx"),
     ("grid.size", "grid.max"),
+    ("flip blend", "simulation.flip_blend"),
     ("gravity", "simulation.gravity"),
     ("gravity ramp", "simulation.gravity_ramp"),
     ("local damping", "simulation.local_damping"),
@@ -68,8 +69,12 @@ pub fn params<const D: usize>(
     TlmpmParams {
         kernel: sc.grid.kernel,
         transfer: match sc.simulation.transfer {
+            TransferKind::Apic => Transfer::Apic,
             TransferKind::Pic => Transfer::Pic,
-            _ => Transfer::Apic,
+            TransferKind::Flip => Transfer::Flip {
+                blend: sc.simulation.flip_blend.unwrap_or(FLIP_BLEND_DEFAULT),
+            },
+            TransferKind::Persistent => Transfer::Persistent,
         },
         gravity: vector::<D>(&sc.simulation.gravity),
         gravity_ramp: gravity_ramp(&sc.simulation),

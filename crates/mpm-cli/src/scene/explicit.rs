@@ -10,7 +10,7 @@ use super::multigrid::{
     resolve_couplings, resolve_dissolution, resolve_mixing, resolve_porous, CouplingDef,
     DissolutionDef, MixingDef, PorousDef, RawCoupling, RawDissolution, RawMixing, RawPorous,
 };
-use super::simulation::Simulation;
+use super::simulation::{Simulation, TransferKind};
 use super::{count_text, Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::{Columns, Material};
@@ -71,6 +71,13 @@ impl SolverTables for ExplicitScene {
             raw_bodies,
             ..
         } = common;
+        if simulation.transfer == TransferKind::Persistent {
+            c.err(
+                "simulation.transfer",
+                "transfer = \"persistent\" needs solver = \"tlmpm\" (its grid is the reference \
+                 configuration); solver \"explicit\" supports \"apic\", \"pic\" or \"flip\"",
+            );
+        }
         let core: Vec<Material> = materials.iter().map(|m| m.model.material()).collect();
         let phases = phase_count(bodies);
         check_phases(c, bodies, phases, grid);

@@ -59,6 +59,7 @@ pub use multigrid::{
 pub use output::{field_names, CheckpointDef, Interval, OutputDef, Precision};
 pub use simulation::{
     Duration, InitialVolume, InstabilityAction, Simulation, TimeStepDef, TransferKind,
+    FLIP_BLEND_DEFAULT,
 };
 pub use tlmpm::{FixedDef, IntegratorKind, LinearSolverKind, LoadDef, TlmpmDef, TlmpmScene};
 

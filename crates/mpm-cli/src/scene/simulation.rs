@@ -25,9 +25,15 @@ pub enum TransferKind {
     Apic,
     /// PIC.
     Pic,
-    /// FLIP/PIC blend.
+    /// FLIP/PIC blend (FLIP fraction `flip_blend`).
     Flip,
+    /// TLMPM only: node velocities persist from step to step and P2G runs only on the first
+    /// step (`mpm_tlmpm::Transfer::Persistent`), free of transfer dissipation.
+    Persistent,
 }
+
+/// Default FLIP fraction α of `transfer = "flip"` (dimensionless).
+pub const FLIP_BLEND_DEFAULT: f64 = 0.95;
 
 /// Where initial particle volumes come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -274,7 +280,7 @@ pub(super) fn resolve_simulation(c: &mut Checker<'_>, s: &RawSimulation) -> Opti
     let flip_blend = if transfer == TransferKind::Flip {
         Some(c.num(
             "simulation.flip_blend",
-            s.flip_blend.unwrap_or(0.95),
+            s.flip_blend.unwrap_or(FLIP_BLEND_DEFAULT),
             |x| (0.0..=1.0).contains(&x),
             "must lie in [0, 1]",
         ))

@@ -1,12 +1,12 @@
 //! The scene module of `solver = "tlmpm"` (total-Lagrangian MPM, `mpm-tlmpm`): the tables only
 //! it reads, `[tlmpm]`, `[[fixed]]` Dirichlet regions and `[[loads]]`, and the checks of the
 //! common tables that TLMPM needs (solids only; walls and colliders that are static,
-//! frictionless penalty obstacles; no FLIP).
+//! frictionless penalty obstacles). Every `simulation.transfer` applies, `"persistent"` only
+//! here.
 
 use super::bodies::BodyDef;
 use super::boundaries::BoundaryDef;
 use super::materials::{ModelDef, PlasticityDef};
-use super::simulation::TransferKind;
 use super::{Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::boundary::ContactKind;
@@ -223,7 +223,7 @@ fn resolve_box(c: &mut Checker<'_>, key: &str, min: &[f64], max: &[f64], d: usiz
 /// Resolves `[tlmpm]`, `[[fixed]]` and `[[loads]]`, and checks that the common tables fit the
 /// solver.
 fn resolve_tlmpm(c: &mut Checker<'_>, raw: &RawTlmpmTables, common: Common<'_>) -> TlmpmScene {
-    check_common_tables(c, common.simulation.transfer, common.boundaries);
+    check_common_tables(c, common.boundaries);
     for (i, m) in common.materials.iter().enumerate() {
         if matches!(m.model, ModelDef::Tait(_)) {
             c.err(
@@ -479,16 +479,10 @@ pub(crate) fn resolve_solid_tables(
     }
 }
 
-/// The values of the common tables TLMPM cannot model: FLIP transfer, and walls and colliders
-/// that are not static, frictionless penalty obstacles. (Keys TLMPM does not read at all, such as
-/// `[[couplings]]` or `bodies[].phase`, are rejected by their owner's key list.)
-fn check_common_tables(c: &mut Checker<'_>, transfer: TransferKind, boundaries: &[BoundaryDef]) {
-    if transfer == TransferKind::Flip {
-        c.err(
-            "simulation.transfer",
-            "solver \"tlmpm\" supports transfer = \"apic\" or \"pic\"",
-        );
-    }
+/// The values of the common tables TLMPM cannot model: walls and colliders that are not static,
+/// frictionless penalty obstacles. (Keys TLMPM does not read at all, such as `[[couplings]]` or
+/// `bodies[].phase`, are rejected by their owner's key list.)
+fn check_common_tables(c: &mut Checker<'_>, boundaries: &[BoundaryDef]) {
     for (i, b) in boundaries.iter().enumerate() {
         if b.contact == ContactKind::Sticky {
             c.err(

@@ -222,6 +222,7 @@ impl Config {
             (_, Transfer::Apic) => "APIC",
             (_, Transfer::Pic) => "PIC",
             (_, Transfer::Persistent) => "persistent",
+            (_, Transfer::Flip { .. }) => "FLIP",
         };
         let kernel = match self.kernel {
             Kernel::Linear => "linear",

@@ -1,6 +1,7 @@
 //! Validation cases of the total-Lagrangian solvers (`mpm-tlmpm`, diq-mpm §3, §5.3–5.4):
 //! Newton convergence on large-deformation steps ([`newton_convergence`]), colliding disks with
-//! penalty contact ([`two_disks_contact`]), a block hanging under extreme gravity
+//! penalty contact ([`two_disks_contact`]) and their energy per transfer
+//! ([`two_disks_energy`]), a block hanging under extreme gravity
 //! ([`hanging_block_extreme`]), the 1D manufactured solution of the TLMPM literature
 //! ([`mms_1d_tlmpm`]), the work–precision cantilever of implicit against explicit
 //! ([`cantilever_tip_load`]).
@@ -14,6 +15,7 @@ pub mod hanging_block_extreme;
 pub mod mms_1d_tlmpm;
 pub mod newton_convergence;
 pub mod two_disks_contact;
+pub mod two_disks_energy;
 
 use crate::report::{progress, CaseResult, Run, Status};
 use mpm_core::{

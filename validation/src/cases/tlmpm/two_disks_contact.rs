@@ -14,7 +14,9 @@ use super::{add_lattice, event_count, grid_around, result, sweep_labelled, tl_pa
 use crate::cases::neo_hookean;
 use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::{Matrix, Real, TimeStepPolicy, Vector};
-use mpm_tlmpm::{ContactParams, ContactRadius, ImplicitParams, NewtonParams, TlmpmParams};
+use mpm_tlmpm::{
+    ContactParams, ContactRadius, ImplicitParams, NewtonParams, TlmpmParams, Transfer,
+};
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -33,11 +35,11 @@ pub const MAX_DRIFT: Real = 1e-9;
 pub const MAX_LOSS: Real = 0.6;
 
 /// Disk radius (m).
-const RADIUS: Real = 0.2;
+pub(super) const RADIUS: Real = 0.2;
 /// Approach speed of each disk (m/s).
-const V0: Real = 1.0;
+pub(super) const V0: Real = 1.0;
 /// Simulated time (s).
-const T_END: Real = 0.3;
+pub(super) const T_END: Real = 0.3;
 
 /// The two disks at grid spacing `dx` (m); particles `0..n/2` are the left disk.
 fn disks(dx: Real) -> mpm_core::Particles<2> {
@@ -56,25 +58,19 @@ fn disks(dx: Real) -> mpm_core::Particles<2> {
     particles
 }
 
-/// One run with grid spacing `dx` (m), implicit (dt = 10⁻³ Δx/0.05 s) or explicit (dt =
-/// 2·10⁻⁴ Δx/0.05 s). error = `max(0, 1 − min gap/(r_p + r_q))`; extras `gap_ratio`,
-/// `momentum_drift`, `energy_loss`, `contacts` (pair contacts summed over steps), `implicit`.
-pub fn run(dx: Real, implicit: bool) -> Result<Run, String> {
-    let particles = disks(dx);
-    let n = particles.len();
-    let half = n / 2;
-    let scale: Real = particles.mass.iter().sum::<Real>() * V0;
+/// The two disks at grid spacing `dx` (m) with a fixed step `dt` (s) in the explicit solver or
+/// the implicit one (Newton `rel_tol` 10⁻¹²), with `transfer`, penalty contact of radius
+/// `0.5 Δx` and no gravity.
+pub(super) fn solver(
+    (dx, dt): (Real, Real),
+    implicit: bool,
+    transfer: Transfer,
+) -> Result<Tlmpm<2>, String> {
     let lo = Vector::<2>::new(0.3 - 0.5 * dx, 0.3 - 0.5 * dx);
     let hi = Vector::<2>::new(1.2 + 0.5 * dx, 0.7 + 0.5 * dx);
-    let dt_explicit = 2e-4 * dx / 0.05;
     let params = TlmpmParams {
-        time_step: TimeStepPolicy::Fixed {
-            dt: if implicit {
-                5.0 * dt_explicit
-            } else {
-                dt_explicit
-            },
-        },
+        transfer,
+        time_step: TimeStepPolicy::Fixed { dt },
         contact: Some(ContactParams {
             radius: ContactRadius::Fixed(0.5 * dx),
             obstacles: Vec::new(),
@@ -88,13 +84,30 @@ pub fn run(dx: Real, implicit: bool) -> Result<Run, String> {
         },
         ..ImplicitParams::default()
     });
-    let mut s = Tlmpm::new(
+    Tlmpm::new(
         grid_around((lo, hi), dx, 3),
         params,
         ip,
         vec![neo_hookean(1e5, 0.3, 1000.0)],
-        particles,
-    )?;
+        disks(dx),
+    )
+}
+
+/// One run with grid spacing `dx` (m) of [`solver`] with APIC, implicit (dt = 10⁻³ Δx/0.05 s)
+/// or explicit (dt = 2·10⁻⁴ Δx/0.05 s). error = `max(0, 1 − min gap/(r_p + r_q))`; extras
+/// `gap_ratio`, `momentum_drift`, `energy_loss`, `contacts` (pair contacts summed over steps),
+/// `implicit`.
+pub fn run(dx: Real, implicit: bool) -> Result<Run, String> {
+    let dt_explicit = 2e-4 * dx / 0.05;
+    let dt = if implicit {
+        5.0 * dt_explicit
+    } else {
+        dt_explicit
+    };
+    let mut s = solver((dx, dt), implicit, Transfer::Apic)?;
+    let n = s.particles().len();
+    let half = n / 2;
+    let scale: Real = s.particles().mass.iter().sum::<Real>() * V0;
     let d0 = s.diagnostics();
     let e0 = d0.kinetic_energy + d0.elastic_energy;
     let contact_distance = dx;
