@@ -936,3 +936,111 @@ fn bad_damping_ramp_and_geostatic_values_exit_2_at_their_key() {
     );
     expect_bad(&d, "k0.toml", &t, "check", "bodies[0].k0", Some("k0"));
 }
+
+#[test]
+fn bad_polygons_and_tilted_boxes_exit_2_at_their_key() {
+    let d = tmpdir("polygon");
+    let box_keys = "shape = \"box\"\nmin = [0.1, 0.1]\nmax = [0.3, 0.3]";
+    let polygon = |vertices: &str| {
+        WATER_2D.replace(
+            box_keys,
+            &format!("shape = \"polygon\"\nvertices = {vertices}"),
+        )
+    };
+    for (name, vertices, key) in [
+        ("two.toml", "[[0.1, 0.1], [0.3, 0.1]]", "bodies[0].vertices"),
+        (
+            "collinear.toml",
+            "[[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]",
+            "bodies[0].vertices",
+        ),
+        (
+            "bowtie.toml",
+            "[[0.1, 0.1], [0.3, 0.3], [0.3, 0.1], [0.1, 0.3]]",
+            "bodies[0].vertices",
+        ),
+        (
+            "inf.toml",
+            "[[0.1, 0.1], [0.3, inf], [0.1, 0.3]]",
+            "bodies[0].vertices[1]",
+        ),
+        (
+            "three.toml",
+            "[[0.1, 0.1, 0.0], [0.3, 0.1], [0.1, 0.3]]",
+            "bodies[0].vertices[0]",
+        ),
+    ] {
+        expect_bad(&d, name, &polygon(vertices), "check", key, Some("vertices"));
+    }
+    // The messages say what is wrong.
+    let p = write(
+        &d,
+        "bowtie2.toml",
+        &polygon("[[0.1, 0.1], [0.3, 0.3], [0.3, 0.1], [0.1, 0.3]]"),
+    );
+    let err = stderr(&cli(&["check", &p.to_string_lossy()]));
+    assert!(err.contains("edges 0 and 2 intersect"), "{err}");
+    let p = write(
+        &d,
+        "line.toml",
+        &polygon("[[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]"),
+    );
+    let err = stderr(&cli(&["check", &p.to_string_lossy()]));
+    assert!(err.contains("zero area"), "{err}");
+    // A polygon in a 3D scene, at its shape.
+    let t = JELLY_3D.replace(
+        "shape = \"box\"",
+        "shape = \"polygon\"\nvertices = [[0.1, 0.1], [0.3, 0.1], [0.1, 0.3]]",
+    );
+    let t = t
+        .lines()
+        .filter(|l| !l.starts_with("min = [0.15") && !l.starts_with("max = [0.35"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    expect_bad(
+        &d,
+        "3d.toml",
+        &t,
+        "check",
+        "bodies[0].shape",
+        Some("shape ="),
+    );
+    // A tilted box: one finite angle, 2D only; a polygon outside the grid at its vertices.
+    let t = WATER_2D.replace("max = [0.3, 0.3]", "max = [0.3, 0.3]\nrotation = [30.0]");
+    expect_bad(
+        &d,
+        "rot.toml",
+        &t,
+        "check",
+        "bodies[0].rotation",
+        Some("rotation"),
+    );
+    let t = WATER_2D.replace("max = [0.3, 0.3]", "max = [0.3, 0.3]\nrotation = nan");
+    expect_bad(
+        &d,
+        "nan.toml",
+        &t,
+        "check",
+        "bodies[0].rotation",
+        Some("rotation"),
+    );
+    let t = polygon("[[0.1, 0.1], [0.7, 0.1], [0.1, 0.3]]");
+    expect_bad(
+        &d,
+        "out.toml",
+        &t,
+        "check",
+        "bodies[0].vertices",
+        Some("vertices"),
+    );
+    let t = WATER_2D.replace("max = [0.3, 0.3]", "max = [0.3, 0.3]\nrotation = 45.0");
+    let t = t.replace("min = [0.1, 0.1]", "min = [0.02, 0.1]");
+    expect_bad(
+        &d,
+        "rotout.toml",
+        &t,
+        "check",
+        "bodies[0].rotation",
+        Some("rotation"),
+    );
+}
