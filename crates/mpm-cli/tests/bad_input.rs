@@ -1044,3 +1044,66 @@ fn bad_polygons_and_tilted_boxes_exit_2_at_their_key() {
         Some("rotation"),
     );
 }
+
+#[test]
+fn nodal_loads_and_tractions_belong_to_tlmpm_and_exit_2_at_their_key() {
+    let d = tmpdir("loads");
+    let traction = "\n[[tractions]]\nmin = [0.29, 0.0]\nmax = [0.4, 0.4]\ntraction = [1.0, 0.0]\n";
+    let nodal = "\n[[nodal_loads]]\npoint = [0.3, 0.2]\nforce = [1.0, 0.0]\n";
+    // Other solvers refuse the tables at their header.
+    for (name, base) in [("explicit", WATER_2D), ("diq", DIQ_2D)] {
+        for (table, extra) in [("tractions", traction), ("nodal_loads", nodal)] {
+            let t = format!("{base}{extra}");
+            let file = format!("{name}-{table}.toml");
+            let header = format!("[[{table}]]");
+            expect_bad(&d, &file, &t, "check", table, Some(&header));
+        }
+    }
+    // In a TLMPM scene: a nodal load needs a point or a box, not both; ramps are positive;
+    // a traction box that misses every body's surface is refused when the solver is built.
+    let t = TLMPM_SNOW_2D.replace(
+        "[output]",
+        "[[nodal_loads]]\npoint = [0.3, 0.2]\nmin = [0.2, 0.2]\nforce = [1.0, 0.0]\n\n[output]",
+    );
+    expect_bad(
+        &d,
+        "both.toml",
+        &t,
+        "check",
+        "nodal_loads[0]",
+        Some("[[nodal_loads]]"),
+    );
+    let t = TLMPM_SNOW_2D.replace(
+        "[output]",
+        "[[nodal_loads]]\npoint = [0.3, 0.2]\nforce = [1.0, 0.0]\nramp = -1.0\n\n[output]",
+    );
+    expect_bad(
+        &d,
+        "ramp.toml",
+        &t,
+        "check",
+        "nodal_loads[0].ramp",
+        Some("ramp"),
+    );
+    let t = TLMPM_SNOW_2D.replace(
+        "[output]",
+        "[[tractions]]\nmin = [0.27, 0.1]\nmax = [0.33, 0.2]\ntraction = [1.0, 0.0]\n\n[output]",
+    );
+    let p = write(&d, "inside.toml", &t);
+    let o = cli(&["check", &p.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("`tractions[0]`"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no surface particle"), "{}", stderr(&o));
+    let t = TLMPM_SNOW_2D.replace(
+        "[output]",
+        "[[nodal_loads]]\nmin = [0.5, 0.3]\nmax = [0.55, 0.35]\nforce = [1.0, 0.0]\n\n[output]",
+    );
+    expect_bad(
+        &d,
+        "far.toml",
+        &t,
+        "check",
+        "nodal_loads[0]",
+        Some("[[nodal_loads]]"),
+    );
+}

@@ -60,7 +60,10 @@ pub use output::{field_names, CheckpointDef, Interval, OutputDef, Precision};
 pub use simulation::{
     Duration, InitialVolume, InstabilityAction, Simulation, TimeStepDef, TransferKind,
 };
-pub use tlmpm::{FixedDef, IntegratorKind, LinearSolverKind, LoadDef, TlmpmDef, TlmpmScene};
+pub use tlmpm::{
+    FixedDef, IntegratorKind, LinearSolverKind, LoadDef, NodalLoadDef, NodesDef, TlmpmDef,
+    TlmpmScene, TractionDef,
+};
 
 /// The top-level tables every scene may have, whatever its solver.
 pub const COMMON_TABLES: [&str; 7] = [
