@@ -16,7 +16,7 @@
 //! without jitter (one layer of `A/h^{D−1}` particles), within one spacing `h` per face edge
 //! otherwise. The load reaches the body at the particles, `h/2` inside the true face, and is
 //! smeared over the kernel's support: a quadrature of `∫ N_i t dA` that is first order in `h`
-//! near the face and exact for the total force and moment-free uniform loads. The neighbour
+//! near the face and exact for the total force. The neighbour
 //! test is exact for an unjittered lattice and holds for jitter up to 0.25 of the spacing;
 //! Poisson-disk samples have no lattice, and a face loaded on them gets an approximate layer.
 
