@@ -937,6 +937,12 @@ fn bad_damping_ramp_and_geostatic_values_exit_2_at_their_key() {
     expect_bad(&d, "k0.toml", &t, "check", "bodies[0].k0", Some("k0"));
 }
 
+/// The stderr of `check` on `text` written to `dir/name`.
+fn check_stderr(dir: &Path, name: &str, text: &str) -> String {
+    let p = write(dir, name, text);
+    stderr(&cli(&["check", &p.to_string_lossy()]))
+}
+
 #[test]
 fn bad_polygons_and_tilted_boxes_exit_2_at_their_key() {
     let d = tmpdir("polygon");
@@ -973,20 +979,16 @@ fn bad_polygons_and_tilted_boxes_exit_2_at_their_key() {
         expect_bad(&d, name, &polygon(vertices), "check", key, Some("vertices"));
     }
     // The messages say what is wrong.
-    let p = write(
-        &d,
-        "bowtie2.toml",
-        &polygon("[[0.1, 0.1], [0.3, 0.3], [0.3, 0.1], [0.1, 0.3]]"),
-    );
-    let err = stderr(&cli(&["check", &p.to_string_lossy()]));
-    assert!(err.contains("edges 0 and 2 intersect"), "{err}");
-    let p = write(
-        &d,
-        "line.toml",
-        &polygon("[[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]"),
-    );
-    let err = stderr(&cli(&["check", &p.to_string_lossy()]));
-    assert!(err.contains("zero area"), "{err}");
+    for (vertices, says) in [
+        (
+            "[[0.1, 0.1], [0.3, 0.3], [0.3, 0.1], [0.1, 0.3]]",
+            "edges 0 and 2 intersect",
+        ),
+        ("[[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]", "zero area"),
+    ] {
+        let err = check_stderr(&d, "says.toml", &polygon(vertices));
+        assert!(err.contains(says), "{err}");
+    }
     // A polygon in a 3D scene, at its shape.
     let t = JELLY_3D.replace(
         "shape = \"box\"",
@@ -1089,11 +1091,16 @@ fn nodal_loads_and_tractions_belong_to_tlmpm_and_exit_2_at_their_key() {
         "[output]",
         "[[tractions]]\nmin = [0.27, 0.1]\nmax = [0.33, 0.2]\ntraction = [1.0, 0.0]\n\n[output]",
     );
-    let p = write(&d, "inside.toml", &t);
-    let o = cli(&["check", &p.to_string_lossy()]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("`tractions[0]`"), "{}", stderr(&o));
-    assert!(stderr(&o).contains("no surface particle"), "{}", stderr(&o));
+    expect_bad(
+        &d,
+        "inside.toml",
+        &t,
+        "check",
+        "tractions[0]",
+        Some("[[tractions]]"),
+    );
+    let err = check_stderr(&d, "inside.toml", &t);
+    assert!(err.contains("no surface particle"), "{err}");
     let t = TLMPM_SNOW_2D.replace(
         "[output]",
         "[[nodal_loads]]\nmin = [0.5, 0.3]\nmax = [0.55, 0.35]\nforce = [1.0, 0.0]\n\n[output]",
