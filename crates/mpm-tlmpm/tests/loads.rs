@@ -6,7 +6,7 @@ mod common;
 use common::{block, grid_around, momentum, solid};
 use mpm_core::material::{ElasticModel, Lame};
 use mpm_core::quasistatic::GravityRamp;
-use mpm_core::{Real, TimeStepPolicy, Vector};
+use mpm_core::{Particles, Real, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ExplicitTlmpm, FixedRegion, ImplicitParams, ImplicitTlmpm, LinearSolver, NewtonParams,
     NodalLoad, NodeSelection, SurfaceTraction, TlmpmParams,
@@ -36,67 +36,75 @@ fn tight() -> ImplicitParams {
 
 /// A free 0.5 m × 0.1 m block (no gravity, no contact, no fixed node) with a nodal load on
 /// the nodes around its right end (ramped over five steps when `ramped`) and a traction on its
-/// right face. The momentum gain of every step is the total applied force times dt: exactly
-/// (to round-off) with the explicit integrator, to Newton's tolerance with the implicit one.
+/// right face, run ten steps. Returns the largest relative error of a step's momentum gain
+/// against the total applied force times dt, and the particles at the end.
 /// The traction's total is `t · H` exactly: the face x = 0.5 m lies on a lattice plane, so
 /// its one layer of H/h surface particles carries h each.
-#[test]
-fn momentum_gains_the_applied_force_times_dt_in_a_free_body() {
+fn loaded_free_block(implicit: bool, ramped: bool) -> (Real, Particles<2>) {
     let (dx, rho, e) = (0.05, 1000.0, 1e5);
     let (len, height) = (0.5, 0.1);
     let bounds = (V2::zeros(), V2::new(len, height));
     let dt = 1e-3;
     let force = V2::new(0.0, -30.0);
     let traction = V2::new(2000.0, 500.0);
+    let ramp = ramped.then_some(GravityRamp { duration: 5.0 * dt });
+    let params = TlmpmParams {
+        time_step: TimeStepPolicy::Fixed { dt },
+        nodal_loads: vec![NodalLoad {
+            nodes: NodeSelection::Box {
+                min: V2::new(len - 0.01, -1.0),
+                max: V2::new(1.0, 1.0),
+            },
+            force,
+            ramp,
+        }],
+        tractions: vec![SurfaceTraction {
+            min: V2::new(len - 0.02, -1.0),
+            max: V2::new(1.0, 1.0),
+            traction,
+            ramp: None,
+        }],
+        ..TlmpmParams::default()
+    };
+    let particles = block(bounds, dx / 2.0, rho, |_| V2::zeros());
+    let spec = grid_around(bounds, dx, 3);
+    let materials = vec![uniaxial(e, rho)];
+    let total = |t: Real| {
+        let f = ramp.map_or(1.0, |r| (t / r.duration).min(1.0));
+        force * f + traction * height
+    };
+    let mut worst: Real = 0.0;
+    let mut record = |p0: V2, p1: V2, t: Real| {
+        let gain = (p1 - p0) / dt;
+        worst = worst.max((gain - total(t)).norm() / total(1.0).norm());
+    };
+    let end = if implicit {
+        let mut s = ImplicitTlmpm::new(spec, params, tight(), materials, particles).unwrap();
+        for _ in 0..10 {
+            let (p0, t) = (momentum(s.particles()), s.time());
+            s.step().unwrap();
+            record(p0, momentum(s.particles()), t);
+        }
+        s.particles().clone()
+    } else {
+        let mut s = ExplicitTlmpm::new(spec, params, materials, particles).unwrap();
+        for _ in 0..10 {
+            let (p0, t) = (momentum(s.particles()), s.time());
+            s.step().unwrap();
+            record(p0, momentum(s.particles()), t);
+        }
+        s.particles().clone()
+    };
+    (worst, end)
+}
+
+/// The momentum gain of every step is the total applied force times dt: exactly (to
+/// round-off) with the explicit integrator, to Newton's tolerance with the implicit one.
+#[test]
+fn momentum_gains_the_applied_force_times_dt_in_a_free_body() {
     for implicit in [false, true] {
         for ramped in [false, true] {
-            let ramp = ramped.then_some(GravityRamp { duration: 5.0 * dt });
-            let params = TlmpmParams {
-                time_step: TimeStepPolicy::Fixed { dt },
-                nodal_loads: vec![NodalLoad {
-                    nodes: NodeSelection::Box {
-                        min: V2::new(len - 0.01, -1.0),
-                        max: V2::new(1.0, 1.0),
-                    },
-                    force,
-                    ramp,
-                }],
-                tractions: vec![SurfaceTraction {
-                    min: V2::new(len - 0.02, -1.0),
-                    max: V2::new(1.0, 1.0),
-                    traction,
-                    ramp: None,
-                }],
-                ..TlmpmParams::default()
-            };
-            let particles = block(bounds, dx / 2.0, rho, |_| V2::zeros());
-            let spec = grid_around(bounds, dx, 3);
-            let materials = vec![uniaxial(e, rho)];
-            let total = |t: Real| {
-                let f = ramp.map_or(1.0, |r| (t / r.duration).min(1.0));
-                force * f + traction * height
-            };
-            let mut worst: Real = 0.0;
-            let mut record = |p0: V2, p1: V2, t: Real| {
-                let gain = (p1 - p0) / dt;
-                worst = worst.max((gain - total(t)).norm() / total(1.0).norm());
-            };
-            if implicit {
-                let mut s =
-                    ImplicitTlmpm::new(spec, params, tight(), materials, particles).unwrap();
-                for _ in 0..10 {
-                    let (p0, t) = (momentum(s.particles()), s.time());
-                    s.step().unwrap();
-                    record(p0, momentum(s.particles()), t);
-                }
-            } else {
-                let mut s = ExplicitTlmpm::new(spec, params, materials, particles).unwrap();
-                for _ in 0..10 {
-                    let (p0, t) = (momentum(s.particles()), s.time());
-                    s.step().unwrap();
-                    record(p0, momentum(s.particles()), t);
-                }
-            }
+            let (worst, _) = loaded_free_block(implicit, ramped);
             // Measured: below 10⁻¹⁴ for both integrators (Newton's residual, solved to
             // round-off here, bounds the implicit one).
             let tol = if implicit { 1e-11 } else { 1e-12 };
@@ -105,6 +113,25 @@ fn momentum_gains_the_applied_force_times_dt_in_a_free_body() {
                 "implicit = {implicit}, ramped = {ramped}: relative error {worst:e}"
             );
         }
+    }
+}
+
+#[test]
+fn loaded_results_are_bitwise_identical_for_1_and_4_threads() {
+    let run = |threads: usize, implicit: bool| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| loaded_free_block(implicit, true).1)
+    };
+    for implicit in [false, true] {
+        let one = run(1, implicit);
+        assert!(
+            one.v.iter().any(|v| v.norm() > 0.0),
+            "the loads moved the block"
+        );
+        assert_eq!(one, run(4, implicit), "implicit: {implicit}");
     }
 }
 
