@@ -35,8 +35,8 @@ fn tight() -> ImplicitParams {
 }
 
 /// A free 0.5 m × 0.1 m block (no gravity, no contact, no fixed node) with a nodal load on
-/// the nodes around its right end (ramped over five steps when `ramped`) and a traction on its
-/// right face, run ten steps. Returns the largest relative error of a step's momentum gain
+/// the nodes around its right end (ramped over five steps when `ramped`), another on the node
+/// nearest a point at its left end, and a traction on its right face, run ten steps. Returns the largest relative error of a step's momentum gain
 /// against the total applied force times dt, and the particles at the end.
 /// The traction's total is `t · H` exactly: the face x = 0.5 m lies on a lattice plane, so
 /// its one layer of H/h surface particles carries h each.
@@ -46,18 +46,26 @@ fn loaded_free_block(implicit: bool, ramped: bool) -> (Real, Particles<2>) {
     let bounds = (V2::zeros(), V2::new(len, height));
     let dt = 1e-3;
     let force = V2::new(0.0, -30.0);
+    let pull = V2::new(-5.0, 0.0);
     let traction = V2::new(2000.0, 500.0);
     let ramp = ramped.then_some(GravityRamp { duration: 5.0 * dt });
     let params = TlmpmParams {
         time_step: TimeStepPolicy::Fixed { dt },
-        nodal_loads: vec![NodalLoad {
-            nodes: NodeSelection::Box {
-                min: V2::new(len - 0.01, -1.0),
-                max: V2::new(1.0, 1.0),
+        nodal_loads: vec![
+            NodalLoad {
+                nodes: NodeSelection::Box {
+                    min: V2::new(len - 0.01, -1.0),
+                    max: V2::new(1.0, 1.0),
+                },
+                force,
+                ramp,
             },
-            force,
-            ramp,
-        }],
+            NodalLoad {
+                nodes: NodeSelection::Point(V2::new(0.01, 0.04)),
+                force: pull,
+                ramp: None,
+            },
+        ],
         tractions: vec![SurfaceTraction {
             min: V2::new(len - 0.02, -1.0),
             max: V2::new(1.0, 1.0),
@@ -71,7 +79,7 @@ fn loaded_free_block(implicit: bool, ramped: bool) -> (Real, Particles<2>) {
     let materials = vec![uniaxial(e, rho)];
     let total = |t: Real| {
         let f = ramp.map_or(1.0, |r| (t / r.duration).min(1.0));
-        force * f + traction * height
+        force * f + pull + traction * height
     };
     let mut worst: Real = 0.0;
     let mut record = |p0: V2, p1: V2, t: Real| {
