@@ -940,3 +940,181 @@ fn bad_damping_ramp_and_geostatic_values_exit_2_at_their_key() {
     );
     expect_bad(&d, "k0.toml", &t, "check", "bodies[0].k0", Some("k0"));
 }
+
+/// The stderr of `check` on `text` written to `dir/name`.
+fn check_stderr(dir: &Path, name: &str, text: &str) -> String {
+    let p = write(dir, name, text);
+    stderr(&cli(&["check", &p.to_string_lossy()]))
+}
+
+#[test]
+fn bad_polygons_and_tilted_boxes_exit_2_at_their_key() {
+    let d = tmpdir("polygon");
+    let box_keys = "shape = \"box\"\nmin = [0.1, 0.1]\nmax = [0.3, 0.3]";
+    let polygon = |vertices: &str| {
+        WATER_2D.replace(
+            box_keys,
+            &format!("shape = \"polygon\"\nvertices = {vertices}"),
+        )
+    };
+    for (name, vertices, key) in [
+        ("two.toml", "[[0.1, 0.1], [0.3, 0.1]]", "bodies[0].vertices"),
+        (
+            "collinear.toml",
+            "[[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]",
+            "bodies[0].vertices",
+        ),
+        (
+            "bowtie.toml",
+            "[[0.1, 0.1], [0.3, 0.3], [0.3, 0.1], [0.1, 0.3]]",
+            "bodies[0].vertices",
+        ),
+        (
+            "inf.toml",
+            "[[0.1, 0.1], [0.3, inf], [0.1, 0.3]]",
+            "bodies[0].vertices[1]",
+        ),
+        (
+            "three.toml",
+            "[[0.1, 0.1, 0.0], [0.3, 0.1], [0.1, 0.3]]",
+            "bodies[0].vertices[0]",
+        ),
+    ] {
+        expect_bad(&d, name, &polygon(vertices), "check", key, Some("vertices"));
+    }
+    // The messages say what is wrong.
+    for (vertices, says) in [
+        (
+            "[[0.1, 0.1], [0.3, 0.3], [0.3, 0.1], [0.1, 0.3]]",
+            "edges 0 and 2 intersect",
+        ),
+        ("[[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]", "zero area"),
+    ] {
+        let err = check_stderr(&d, "says.toml", &polygon(vertices));
+        assert!(err.contains(says), "{err}");
+    }
+    // A polygon in a 3D scene, at its shape.
+    let t = JELLY_3D.replace(
+        "shape = \"box\"",
+        "shape = \"polygon\"\nvertices = [[0.1, 0.1], [0.3, 0.1], [0.1, 0.3]]",
+    );
+    let t = t
+        .lines()
+        .filter(|l| !l.starts_with("min = [0.15") && !l.starts_with("max = [0.35"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    expect_bad(
+        &d,
+        "3d.toml",
+        &t,
+        "check",
+        "bodies[0].shape",
+        Some("shape ="),
+    );
+    // A tilted box: one finite angle, 2D only; a polygon outside the grid at its vertices.
+    let t = WATER_2D.replace("max = [0.3, 0.3]", "max = [0.3, 0.3]\nrotation = [30.0]");
+    expect_bad(
+        &d,
+        "rot.toml",
+        &t,
+        "check",
+        "bodies[0].rotation",
+        Some("rotation"),
+    );
+    let t = WATER_2D.replace("max = [0.3, 0.3]", "max = [0.3, 0.3]\nrotation = nan");
+    expect_bad(
+        &d,
+        "nan.toml",
+        &t,
+        "check",
+        "bodies[0].rotation",
+        Some("rotation"),
+    );
+    let t = polygon("[[0.1, 0.1], [0.7, 0.1], [0.1, 0.3]]");
+    expect_bad(
+        &d,
+        "out.toml",
+        &t,
+        "check",
+        "bodies[0].vertices",
+        Some("vertices"),
+    );
+    let t = WATER_2D.replace("max = [0.3, 0.3]", "max = [0.3, 0.3]\nrotation = 45.0");
+    let t = t.replace("min = [0.1, 0.1]", "min = [0.02, 0.1]");
+    expect_bad(
+        &d,
+        "rotout.toml",
+        &t,
+        "check",
+        "bodies[0].rotation",
+        Some("rotation"),
+    );
+}
+
+#[test]
+fn nodal_loads_and_tractions_belong_to_tlmpm_and_exit_2_at_their_key() {
+    let d = tmpdir("loads");
+    let traction = "\n[[tractions]]\nmin = [0.29, 0.0]\nmax = [0.4, 0.4]\ntraction = [1.0, 0.0]\n";
+    let nodal = "\n[[nodal_loads]]\npoint = [0.3, 0.2]\nforce = [1.0, 0.0]\n";
+    // Other solvers refuse the tables at their header.
+    for (name, base) in [("explicit", WATER_2D), ("diq", DIQ_2D)] {
+        for (table, extra) in [("tractions", traction), ("nodal_loads", nodal)] {
+            let t = format!("{base}{extra}");
+            let file = format!("{name}-{table}.toml");
+            let header = format!("[[{table}]]");
+            expect_bad(&d, &file, &t, "check", table, Some(&header));
+        }
+    }
+    // In a TLMPM scene: a nodal load needs a point or a box, not both; ramps are positive;
+    // a traction box that misses every body's surface is refused when the solver is built.
+    let t = TLMPM_SNOW_2D.replace(
+        "[output]",
+        "[[nodal_loads]]\npoint = [0.3, 0.2]\nmin = [0.2, 0.2]\nforce = [1.0, 0.0]\n\n[output]",
+    );
+    expect_bad(
+        &d,
+        "both.toml",
+        &t,
+        "check",
+        "nodal_loads[0]",
+        Some("[[nodal_loads]]"),
+    );
+    let t = TLMPM_SNOW_2D.replace(
+        "[output]",
+        "[[nodal_loads]]\npoint = [0.3, 0.2]\nforce = [1.0, 0.0]\nramp = -1.0\n\n[output]",
+    );
+    expect_bad(
+        &d,
+        "ramp.toml",
+        &t,
+        "check",
+        "nodal_loads[0].ramp",
+        Some("ramp"),
+    );
+    let t = TLMPM_SNOW_2D.replace(
+        "[output]",
+        "[[tractions]]\nmin = [0.27, 0.1]\nmax = [0.33, 0.2]\ntraction = [1.0, 0.0]\n\n[output]",
+    );
+    expect_bad(
+        &d,
+        "inside.toml",
+        &t,
+        "check",
+        "tractions[0]",
+        Some("[[tractions]]"),
+    );
+    let err = check_stderr(&d, "inside.toml", &t);
+    assert!(err.contains("no surface particle"), "{err}");
+    let t = TLMPM_SNOW_2D.replace(
+        "[output]",
+        "[[nodal_loads]]\nmin = [0.5, 0.3]\nmax = [0.55, 0.35]\nforce = [1.0, 0.0]\n\n[output]",
+    );
+    expect_bad(
+        &d,
+        "far.toml",
+        &t,
+        "check",
+        "nodal_loads[0]",
+        Some("[[nodal_loads]]"),
+    );
+}

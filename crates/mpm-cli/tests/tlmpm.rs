@@ -68,10 +68,43 @@ fn positions(path: &Path) -> (f64, Vec<[f64; 2]>) {
     )
 }
 
+/// The `[[loads]]` table of [`CANTILEVER`].
+const PARTICLE_LOAD: &str = "[[loads]]
+name = \"tip\"
+min = [0.98, -1.0]
+max = [1.0, 1.0]
+force = [0.0, -40.0]";
+
 #[test]
 fn cantilever_step_load_matches_euler_bernoulli() {
-    let d = tmpdir("tlmpm-cantilever");
-    let scene = write(&d, "cantilever.toml", CANTILEVER);
+    cantilever_matches_euler_bernoulli("particles", CANTILEVER);
+}
+
+/// The same tip load P = 40 N/m as a shear traction of −400 Pa on the 0.1 m end face (its one
+/// layer of surface particles carries 0.1 m exactly), and as a nodal load on the reference
+/// nodes of the tip section X = 1 m.
+#[test]
+fn cantilever_tip_traction_and_nodal_load_match_euler_bernoulli() {
+    let traction = CANTILEVER.replace(
+        PARTICLE_LOAD,
+        "[[tractions]]\nname = \"tip\"\nmin = [0.99, -1.0]\nmax = [1.1, 1.0]\n\
+         traction = [0.0, -400.0]",
+    );
+    assert_ne!(traction, CANTILEVER);
+    cantilever_matches_euler_bernoulli("traction", &traction);
+    let nodal = CANTILEVER.replace(
+        PARTICLE_LOAD,
+        "[[nodal_loads]]\nname = \"tip\"\nmin = [0.99, -1.0]\nmax = [1.01, 1.0]\n\
+         force = [0.0, -40.0]",
+    );
+    cantilever_matches_euler_bernoulli("nodal", &nodal);
+}
+
+/// Runs the cantilever scene `text` (a step tip load of 40 N/m in all) and checks the static
+/// deflection, the period and the overshoot against Euler–Bernoulli.
+fn cantilever_matches_euler_bernoulli(name: &str, text: &str) {
+    let d = tmpdir(&format!("tlmpm-cantilever-{name}"));
+    let scene = write(&d, "cantilever.toml", text);
     let out = d.join("out");
     let o = cli(&[
         "run",
@@ -116,7 +149,7 @@ fn cantilever_step_load_matches_euler_bernoulli() {
         );
     let static_est = 0.5 * (w_max + w_min);
     println!(
-        "cantilever: static deflection {static_est:.5} m (Euler–Bernoulli {delta:.5} m), first \
+        "cantilever ({name}): static deflection {static_est:.5} m (Euler–Bernoulli {delta:.5} m), first \
          maximum {w_max:.5} m at {t_max:.3} s, minimum {w_min:.5} m at {t_min:.3} s, period \
          {:.4} s (Euler–Bernoulli {period:.4} s)",
         t_min

@@ -3,6 +3,7 @@
 use crate::adaptive::Adaptive;
 use crate::contact::{ContactRadius, ContactStage, ContactStats};
 use crate::error::{NewtonError, StepError};
+use crate::loads::AppliedLoads;
 use crate::params::{ImplicitParams, TlmpmParams, Transfer};
 use crate::potential::Constitutive;
 use crate::reference::{Constraints, ReferenceConfig};
@@ -364,6 +365,8 @@ pub(crate) struct Core<const D: usize> {
     pub external: Vec<Vector<D>>,
     /// Applied per-particle forces f_p (N), e.g. a tip load; empty when there are none.
     pub particle_forces: Vec<Vector<D>>,
+    /// The nodal loads and the tractions' surface particles of the parameters.
+    pub loads: AppliedLoads,
     /// Node displacements of the step, u = Δt v^{n+1} (m).
     pub displacement: Vec<Vector<D>>,
     /// G2P results awaiting the guard checks.
@@ -388,6 +391,12 @@ where
         let models = validate(&spec, &params, &materials, &particles)?;
         let reference = ReferenceConfig::new(spec, params.kernel, &particles.x, &particles.mass)?;
         let constraints = Constraints::new(&reference, &params.fixed);
+        let loads = AppliedLoads::new(
+            &params.nodal_loads,
+            &params.tractions,
+            &reference,
+            &particles.volume0,
+        )?;
         let contact = params
             .contact
             .as_ref()
@@ -418,6 +427,7 @@ where
             node_velocity: Vec::new(),
             external: Vec::new(),
             particle_forces: Vec::new(),
+            loads,
             displacement: Vec::new(),
             updates: Vec::new(),
             contact,
@@ -577,7 +587,7 @@ where
         plan.push(
             Stage::ExternalForces,
             format!(
-                "gravity {:?} m/s^2{}{}",
+                "gravity {:?} m/s^2{}{}{}",
                 p.gravity.as_slice(),
                 p.gravity_ramp.map_or(String::new(), |r| format!(
                     " ramped from 0 over {} s",
@@ -587,6 +597,16 @@ where
                     ""
                 } else {
                     "; applied particle forces"
+                },
+                if p.nodal_loads.is_empty() && p.tractions.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; {} nodal load(s), {} traction(s) on {} surface particle(s)",
+                        p.nodal_loads.len(),
+                        p.tractions.len(),
+                        self.loads.surface_particles()
+                    )
                 }
             ),
         );
@@ -647,7 +667,8 @@ where
     }
 
     /// Stage: external nodal forces `f^ext_i = m_i g + Σ_p W_i(X_p) f_p` (N), gravity (ramped
-    /// where the parameters ramp it, at the start of the step) plus the applied particle forces.
+    /// where the parameters ramp it, at the start of the step) plus the applied particle forces,
+    /// plus the nodal loads and tractions (ramped likewise).
     pub fn external_forces(&mut self) {
         let g = gravity_at(
             &self.params.gravity,
@@ -661,6 +682,13 @@ where
             self.reference
                 .spread_forces(&self.particle_forces, &mut self.external);
         }
+        self.loads.add(
+            &self.params.nodal_loads,
+            &self.params.tractions,
+            &self.reference,
+            self.time,
+            &mut self.external,
+        );
     }
 
     /// Applied per-particle forces (N), allocated as zeros on first use.

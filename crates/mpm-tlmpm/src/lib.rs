@@ -58,6 +58,7 @@ mod core;
 mod error;
 mod explicit;
 mod implicit;
+mod loads;
 mod newton;
 mod params;
 mod potential;
@@ -69,6 +70,7 @@ pub use contact::{ContactInput, ContactRadius, ContactStats, Obstacle, ParticleC
 pub use error::{NewtonError, StepError};
 pub use explicit::{ExplicitStepInfo, ExplicitTlmpm};
 pub use implicit::{ImplicitStepInfo, ImplicitTlmpm};
+pub use loads::{NodalLoad, NodeSelection, SurfaceTraction};
 pub use mpm_linalg::CholeskyError;
 pub use newton::{fitted_order, NewtonInfo};
 pub use params::{

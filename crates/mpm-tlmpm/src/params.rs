@@ -1,6 +1,7 @@
 //! Parameters of the TLMPM solvers.
 
 use crate::contact::{ContactRadius, Obstacle};
+use crate::loads::{NodalLoad, SurfaceTraction};
 use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{Kernel, OnInstability, Real, TimeStepPolicy, Vector};
 use serde::{Deserialize, Serialize};
@@ -97,6 +98,10 @@ pub struct TlmpmParams<const D: usize> {
     /// Particle–particle and particle–obstacle penalty contact (diq-mpm §3.2, Eq. 4); `None`
     /// runs no contact stage.
     pub contact: Option<ContactParams<D>>,
+    /// Forces on reference-grid nodes (none by default).
+    pub nodal_loads: Vec<NodalLoad<D>>,
+    /// Surface tractions through the surface particles (none by default).
+    pub tractions: Vec<SurfaceTraction<D>>,
     /// A-ULMPM adaptive reference updates (diq-mpm §5.4); `None` keeps the initial reference
     /// configuration for the whole run (plain TLMPM, elastic solids only).
     pub reference_update: Option<ReferenceUpdate>,
@@ -137,6 +142,8 @@ impl<const D: usize> Default for TlmpmParams<D> {
             on_instability: OnInstability::Abort,
             fixed: Vec::new(),
             contact: None,
+            nodal_loads: Vec::new(),
+            tractions: Vec::new(),
             reference_update: None,
         }
     }

@@ -1,6 +1,7 @@
 //! The build module of `solver = "tlmpm"`: total-Lagrangian MPM (`mpm-tlmpm`), implicit or
 //! explicit, with walls and colliders as penalty obstacles, `[[fixed]]` regions, `[[loads]]` as
-//! per-particle forces, and the scene keys of its set-up errors.
+//! per-particle forces, `[[nodal_loads]]` and `[[tractions]]`, and the scene keys of its set-up
+//! errors.
 
 use super::{
     boundaries, damping, fmt_vec, gravity_ramp, on_instability, setup_error, time_step_policy,
@@ -8,13 +9,14 @@ use super::{
 };
 use crate::error::SceneError;
 use crate::scene::{
-    BoundaryGeometry, IntegratorKind, LinearSolverKind, LoadDef, LoadedScene, TlmpmDef, TlmpmScene,
-    TransferKind, FLIP_BLEND_DEFAULT,
+    BoundaryGeometry, IntegratorKind, LinearSolverKind, LoadDef, LoadedScene, NodesDef, TlmpmDef,
+    TlmpmScene, TransferKind, FLIP_BLEND_DEFAULT,
 };
+use mpm_core::quasistatic::GravityRamp;
 use mpm_core::{Dim, DimOps, GridSpec, Particles, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, FixedRegion, ImplicitParams, LinearSolver, NewtonParams,
-    Obstacle, TlmpmParams, Transfer,
+    NodalLoad, NodeSelection, Obstacle, SurfaceTraction, TlmpmParams, Transfer,
 };
 
 /// The scene keys of the TLMPM solver's parameter names (`SetupError::InvalidParameter`).
@@ -95,6 +97,31 @@ pub fn params<const D: usize>(
             radius: ContactRadius::Fixed(t.contact_radius),
             obstacles,
         }),
+        nodal_loads: own
+            .nodal_loads
+            .iter()
+            .map(|l| NodalLoad {
+                nodes: match &l.nodes {
+                    NodesDef::Point { point } => NodeSelection::Point(vector::<D>(point)),
+                    NodesDef::Box { min, max } => NodeSelection::Box {
+                        min: vector::<D>(min),
+                        max: vector::<D>(max),
+                    },
+                },
+                force: vector::<D>(&l.force),
+                ramp: l.ramp.map(|duration| GravityRamp { duration }),
+            })
+            .collect(),
+        tractions: own
+            .tractions
+            .iter()
+            .map(|t| SurfaceTraction {
+                min: vector::<D>(&t.min),
+                max: vector::<D>(&t.max),
+                traction: vector::<D>(&t.traction),
+                ramp: t.ramp.map(|duration| GravityRamp { duration }),
+            })
+            .collect(),
         reference_update: t.reference_update,
     }
 }
@@ -187,7 +214,13 @@ where
     let t = &own.tlmpm;
     let keys = ErrorKeys {
         parameters: &PARAMETER_KEYS,
-        settings: Vec::new(),
+        settings: (0..own.nodal_loads.len())
+            .map(|i| (format!("nodal load {i}"), format!("nodal_loads[{i}]")))
+            .chain(
+                (0..own.tractions.len())
+                    .map(|i| (format!("traction {i}"), format!("tractions[{i}]"))),
+            )
+            .collect(),
     };
     let fail = |e| setup_error(scene, &bodies, e, &keys);
     let implicit = (t.integrator == IntegratorKind::Implicit).then(|| implicit_params(t));
@@ -196,10 +229,27 @@ where
     if let Some(f) = forces {
         solver.particle_forces_mut().copy_from_slice(&f);
     }
+    let ramped = |r: Option<f64>| r.map_or(String::new(), |r| format!(", ramped over {r} s"));
     let notes = own
         .loads
         .iter()
         .map(|l| format!("load:       \"{}\": {:?} N", l.name, l.force))
+        .chain(own.nodal_loads.iter().map(|l| {
+            format!(
+                "nodal load: \"{}\": {:?} N{}",
+                l.name,
+                l.force,
+                ramped(l.ramp)
+            )
+        }))
+        .chain(own.tractions.iter().map(|t| {
+            format!(
+                "traction:   \"{}\": {:?} Pa{}",
+                t.name,
+                t.traction,
+                ramped(t.ramp)
+            )
+        }))
         .collect();
     Ok(Built {
         solver,

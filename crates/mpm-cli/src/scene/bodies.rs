@@ -4,6 +4,7 @@
 
 use super::materials::{material_index, MaterialDef};
 use super::Checker;
+use mpm_core::sampling::{polygon_defect, PolygonDefect, Shape};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -19,6 +20,8 @@ pub enum ShapeKind {
     Cylinder,
     /// Closed triangle mesh from an OBJ file (3D only).
     Mesh,
+    /// Simple polygon (2D only).
+    Polygon,
 }
 
 /// Sampling names.
@@ -31,7 +34,7 @@ pub enum SamplingKind {
     Poisson,
 }
 
-/// A number or a list of numbers (mesh scale, angular velocity).
+/// A number or a list of numbers (mesh scale, angular velocity, rotation).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum NumberOrList {
@@ -56,7 +59,8 @@ pub(crate) struct RawBody {
     half_length: Option<f64>,
     file: Option<String>,
     scale: Option<NumberOrList>,
-    rotation: Option<Vec<f64>>,
+    rotation: Option<NumberOrList>,
+    vertices: Option<Vec<Vec<f64>>>,
     translation: Option<Vec<f64>>,
     sampling: Option<SamplingKind>,
     per_axis: Option<u32>,
@@ -126,12 +130,15 @@ pub struct BodyDef {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "shape", rename_all = "snake_case")]
 pub enum ShapeDef {
-    /// Axis-aligned box.
+    /// Box: axis-aligned, or in 2D turned by `rotation` about its centre.
     Box {
-        /// Lower corner (m).
+        /// Lower corner (m), before the rotation.
         min: Vec<f64>,
-        /// Upper corner (m).
+        /// Upper corner (m), before the rotation.
         max: Vec<f64>,
+        /// Counter-clockwise rotation about the box centre (degrees; 2D only).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        rotation: Option<f64>,
     },
     /// Sphere (disk in 2D).
     Sphere {
@@ -164,6 +171,11 @@ pub enum ShapeDef {
         /// Resolved path of the OBJ file.
         #[serde(skip)]
         path: PathBuf,
+    },
+    /// Simple polygon (2D): vertices `[x, y]` (m) in order, either orientation.
+    Polygon {
+        /// Vertices (m).
+        vertices: Vec<[f64; 2]>,
     },
 }
 
@@ -258,6 +270,7 @@ fn resolve_body(
             "scale" => b.scale.is_some(),
             "rotation" => b.rotation.is_some(),
             "translation" => b.translation.is_some(),
+            "vertices" => b.vertices.is_some(),
             _ => false,
         }
     };
@@ -272,12 +285,14 @@ fn resolve_body(
         "scale",
         "rotation",
         "translation",
+        "vertices",
     ];
     let used: &[&str] = match b.shape {
-        ShapeKind::Box => &["min", "max"],
+        ShapeKind::Box => &["min", "max", "rotation"],
         ShapeKind::Sphere => &["center", "radius"],
         ShapeKind::Cylinder => &["center", "axis", "radius", "half_length"],
         ShapeKind::Mesh => &["file", "scale", "rotation", "translation"],
+        ShapeKind::Polygon => &["vertices"],
     };
     let shape_name = super::serde_plain(&b.shape);
     for key in all {
@@ -303,8 +318,30 @@ fn resolve_body(
             let min = need_vec(c, "min", &b.min);
             let max = need_vec(c, "max", &b.max);
             c.box_corners(&format!("bodies[{i}]"), &min, &max, d);
-            ShapeDef::Box { min, max }
+            let rotation = b.rotation.as_ref().map(|r| match (d, r) {
+                (2, NumberOrList::Number(deg)) => c.num(
+                    &k("rotation"),
+                    *deg,
+                    |_| true,
+                    "must be a finite angle (degrees)",
+                ),
+                _ => {
+                    c.err(
+                        &k("rotation"),
+                        if d == 2 {
+                            "a box's rotation is one angle (degrees, counter-clockwise)"
+                        } else {
+                            "a box turns only in 2D; in 3D use shape = \"mesh\" with `rotation`"
+                        },
+                    );
+                    0.0
+                }
+            });
+            ShapeDef::Box { min, max, rotation }
         }
+        ShapeKind::Polygon => ShapeDef::Polygon {
+            vertices: resolve_polygon(c, &k("vertices"), b.vertices.as_deref(), d, &k("shape")),
+        },
         ShapeKind::Sphere => ShapeDef::Sphere {
             center: need_vec(c, "center", &b.center),
             radius: need_num(c, "radius", b.radius),
@@ -351,7 +388,14 @@ fn resolve_body(
                 c.err(&k("scale"), "scale factors must be positive finite numbers");
             }
             let rotation = match &b.rotation {
-                Some(r) => c.vector(&k("rotation"), r, 3),
+                Some(NumberOrList::List(r)) => c.vector(&k("rotation"), r, 3),
+                Some(NumberOrList::Number(_)) => {
+                    c.err(
+                        &k("rotation"),
+                        "a mesh's rotation is three Euler angles [x, y, z] (degrees)",
+                    );
+                    vec![0.0; 3]
+                }
                 None => vec![0.0; 3],
             };
             let translation = match &b.translation {
@@ -490,10 +534,60 @@ fn resolve_body(
     }
 }
 
+/// The vertices of `shape = "polygon"` at `key`: a list of `[x, y]` pairs forming a simple
+/// polygon of positive area ([`polygon_defect`]), in a 2D scene (`shape_key` otherwise).
+fn resolve_polygon(
+    c: &mut Checker<'_>,
+    key: &str,
+    raw: Option<&[Vec<f64>]>,
+    d: usize,
+    shape_key: &str,
+) -> Vec<[f64; 2]> {
+    if d != 2 {
+        c.err(
+            shape_key,
+            "shape = \"polygon\" needs dim = 2 (in 3D use shape = \"mesh\")",
+        );
+        return Vec::new();
+    }
+    let Some(raw) = raw else {
+        c.err(key, "missing key: shape = \"polygon\" needs `vertices`");
+        return Vec::new();
+    };
+    let mut vertices = Vec::with_capacity(raw.len());
+    for (j, v) in raw.iter().enumerate() {
+        match v.as_slice() {
+            &[x, y] => vertices.push([x, y]),
+            _ => {
+                c.err(
+                    &format!("{key}[{j}]"),
+                    format!("a vertex is [x, y] (m), got {} numbers", v.len()),
+                );
+                return Vec::new();
+            }
+        }
+    }
+    match polygon_defect(&vertices) {
+        Some(PolygonDefect::NonFinite(j)) => {
+            c.err(&format!("{key}[{j}]"), "must be finite numbers");
+        }
+        Some(e) => c.err(key, e.to_string()),
+        None => {}
+    }
+    vertices
+}
+
 /// Centre of a shape's bounding box (mesh: its translation).
 fn shape_center(s: &ShapeDef, d: usize) -> Vec<f64> {
     match s {
-        ShapeDef::Box { min, max } => min.iter().zip(max).map(|(a, b)| 0.5 * (a + b)).collect(),
+        ShapeDef::Box { min, max, .. } => min.iter().zip(max).map(|(a, b)| 0.5 * (a + b)).collect(),
+        ShapeDef::Polygon { vertices } => {
+            let polygon = Shape::<2>::Polygon {
+                vertices: vertices.clone(),
+            };
+            let (lo, hi) = polygon.bounds();
+            ((lo + hi) * 0.5).as_slice().to_vec()
+        }
         ShapeDef::Sphere { center, .. } | ShapeDef::Cylinder { center, .. } => center.clone(),
         ShapeDef::Mesh { translation, .. } => {
             let mut t = translation.clone();

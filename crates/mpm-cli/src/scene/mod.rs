@@ -61,7 +61,10 @@ pub use simulation::{
     Duration, InitialVolume, InstabilityAction, Simulation, TimeStepDef, TransferKind,
     FLIP_BLEND_DEFAULT,
 };
-pub use tlmpm::{FixedDef, IntegratorKind, LinearSolverKind, LoadDef, TlmpmDef, TlmpmScene};
+pub use tlmpm::{
+    FixedDef, IntegratorKind, LinearSolverKind, LoadDef, NodalLoadDef, NodesDef, TlmpmDef,
+    TlmpmScene, TractionDef,
+};
 
 /// The top-level tables every scene may have, whatever its solver.
 pub const COMMON_TABLES: [&str; 7] = [

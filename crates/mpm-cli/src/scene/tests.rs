@@ -151,7 +151,7 @@ fn an_unknown_table_lists_every_table_a_scene_may_have() {
         p[0].2,
         "unknown field `couplingz`, expected one of `simulation`, `grid`, `materials`, \
          `bodies`, `boundaries`, `output`, `checkpoint`, `couplings`, `porous`, `mixing`, \
-         `dissolution`, `tlmpm`, `fixed`, `loads`, `diq`"
+         `dissolution`, `tlmpm`, `fixed`, `loads`, `nodal_loads`, `tractions`, `diq`"
     );
 }
 

@@ -1,5 +1,6 @@
 //! The scene module of `solver = "tlmpm"` (total-Lagrangian MPM, `mpm-tlmpm`): the tables only
-//! it reads, `[tlmpm]`, `[[fixed]]` Dirichlet regions and `[[loads]]`, and the checks of the
+//! it reads, `[tlmpm]`, `[[fixed]]` Dirichlet regions, `[[loads]]`, `[[nodal_loads]]` and
+//! `[[tractions]]`, and the checks of the
 //! common tables that TLMPM needs (solids only; walls and colliders that are static,
 //! frictionless penalty obstacles). Every `simulation.transfer` applies, `"persistent"` only
 //! here.
@@ -43,6 +44,10 @@ pub(crate) struct RawTlmpmTables {
     pub(crate) fixed: Vec<RawFixed>,
     #[serde(default)]
     loads: Vec<RawLoad>,
+    #[serde(default)]
+    nodal_loads: Vec<RawNodalLoad>,
+    #[serde(default)]
+    tractions: Vec<RawTraction>,
 }
 
 impl RawTlmpmTables {
@@ -52,6 +57,8 @@ impl RawTlmpmTables {
             tlmpm,
             fixed,
             loads: Vec::new(),
+            nodal_loads: Vec::new(),
+            tractions: Vec::new(),
         }
     }
 }
@@ -95,6 +102,27 @@ struct RawLoad {
     min: Vec<f64>,
     max: Vec<f64>,
     force: Vec<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawNodalLoad {
+    name: Option<String>,
+    point: Option<Vec<f64>>,
+    min: Option<Vec<f64>>,
+    max: Option<Vec<f64>>,
+    force: Vec<f64>,
+    ramp: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTraction {
+    name: Option<String>,
+    min: Vec<f64>,
+    max: Vec<f64>,
+    traction: Vec<f64>,
+    ramp: Option<f64>,
 }
 
 /// `[tlmpm]`: the TLMPM solver's settings.
@@ -161,6 +189,55 @@ pub struct LoadDef {
     pub force: Vec<f64>,
 }
 
+/// The nodes a `[[nodal_loads]]` entry acts on, in the reference configuration.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum NodesDef {
+    /// The active node nearest to `point` (m).
+    Point {
+        /// Reference point (m).
+        point: Vec<f64>,
+    },
+    /// The active nodes in the box `[min, max]` (m).
+    Box {
+        /// Lower corner (m).
+        min: Vec<f64>,
+        /// Upper corner (m).
+        max: Vec<f64>,
+    },
+}
+
+/// One `[[nodal_loads]]` entry: a force on reference-grid nodes.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NodalLoadDef {
+    /// Name, for messages.
+    pub name: String,
+    /// The loaded nodes.
+    #[serde(flatten)]
+    pub nodes: NodesDef,
+    /// Total force (N; N/m in 2D), shared equally by the selected nodes.
+    pub force: Vec<f64>,
+    /// Linear ramp time from zero to the full force (s); `None` for a step load.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ramp: Option<f64>,
+}
+
+/// One `[[tractions]]` entry: a traction on the body surface inside a box.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TractionDef {
+    /// Name, for messages.
+    pub name: String,
+    /// Lower corner (m) of the box, reference configuration.
+    pub min: Vec<f64>,
+    /// Upper corner (m).
+    pub max: Vec<f64>,
+    /// Traction vector (Pa; per unit reference area, in 2D per unit thickness).
+    pub traction: Vec<f64>,
+    /// Linear ramp time from zero to the full traction (s); `None` for a step load.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ramp: Option<f64>,
+}
+
 /// The TLMPM solver's own tables of a scene, resolved.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TlmpmScene {
@@ -172,10 +249,17 @@ pub struct TlmpmScene {
     /// `[[loads]]`: constant forces on the particles.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub loads: Vec<LoadDef>,
+    /// `[[nodal_loads]]`: forces on reference-grid nodes.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub nodal_loads: Vec<NodalLoadDef>,
+    /// `[[tractions]]`: surface tractions.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub tractions: Vec<TractionDef>,
 }
 
 impl SolverTables for TlmpmScene {
-    const TABLES: &'static [&'static str] = &["tlmpm", "fixed", "loads"];
+    const TABLES: &'static [&'static str] =
+        &["tlmpm", "fixed", "loads", "nodal_loads", "tractions"];
     const KEYS: &'static [&'static str] = &[
         "simulation.gravity_ramp",
         "simulation.local_damping",
@@ -460,6 +544,58 @@ pub(crate) fn resolve_solid_tables(
             }
         })
         .collect();
+    let ramp = |c: &mut Checker<'_>, key: String, r: Option<f64>| r.map(|r| c.positive(&key, r));
+    let nodal_loads = raw
+        .nodal_loads
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let key = format!("nodal_loads[{i}]");
+            let nodes = match (&l.point, &l.min, &l.max) {
+                (Some(p), None, None) => NodesDef::Point {
+                    point: c.vector(&format!("{key}.point"), p, d),
+                },
+                (None, Some(min), Some(max)) => {
+                    resolve_box(c, &key, min, max, d);
+                    NodesDef::Box {
+                        min: min.clone(),
+                        max: max.clone(),
+                    }
+                }
+                _ => {
+                    c.err(
+                        &key,
+                        "give either `point` or both `min` and `max` (m, reference configuration)",
+                    );
+                    NodesDef::Point {
+                        point: vec![0.0; d],
+                    }
+                }
+            };
+            NodalLoadDef {
+                name: l.name.clone().unwrap_or_else(|| format!("nodal_load{i}")),
+                nodes,
+                force: c.vector(&format!("{key}.force"), &l.force, d),
+                ramp: ramp(c, format!("{key}.ramp"), l.ramp),
+            }
+        })
+        .collect();
+    let tractions = raw
+        .tractions
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let key = format!("tractions[{i}]");
+            resolve_box(c, &key, &t.min, &t.max, d);
+            TractionDef {
+                name: t.name.clone().unwrap_or_else(|| format!("traction{i}")),
+                min: t.min.clone(),
+                max: t.max.clone(),
+                traction: c.vector(&format!("{key}.traction"), &t.traction, d),
+                ramp: ramp(c, format!("{key}.ramp"), t.ramp),
+            }
+        })
+        .collect();
     TlmpmScene {
         tlmpm: TlmpmDef {
             integrator,
@@ -476,6 +612,8 @@ pub(crate) fn resolve_solid_tables(
         },
         fixed,
         loads,
+        nodal_loads,
+        tractions,
     }
 }
 
