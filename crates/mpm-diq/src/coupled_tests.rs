@@ -425,3 +425,186 @@ fn fluid_does_not_enter_a_slab_resting_on_it() {
         "fluid reached {top_fluid} m, into the slab from {bottom} m"
     );
 }
+
+/// Two elastic blocks approaching at ±0.5 m/s, the right one wetted by a blob of water, no
+/// gravity and no walls, and the smallest distance between particles of different blocks over
+/// the run relative to `r_p + r_q` (`r_p = ½ (V⁰_p)^{1/2}`, Eq. 4's `FromVolume` radius), with
+/// contact on or off. Returns that ratio, the relative momentum drift and the blocks' final
+/// relative velocity (m/s, positive when separating).
+fn colliding_blocks(contact: bool) -> (Real, Real, Real) {
+    let n = 24;
+    let dx = 1.0 / n as Real;
+    let mut ps = Particles::new(columns());
+    // Three cells apart, so that the blocks share no node of the reference grid (on one
+    // reference grid, bodies closer than the kernel's support are tied through their nodes).
+    let (left, right) = (([0.2, 0.4], [0.35, 0.55]), ([0.475, 0.4], [0.625, 0.55]));
+    lattice(
+        &mut ps,
+        left,
+        dx,
+        (1, 800.0),
+        Vector::<2>::new(0.5, 0.0),
+        |_| true,
+    );
+    let first_right = ps.len();
+    lattice(
+        &mut ps,
+        right,
+        dx,
+        (1, 800.0),
+        Vector::<2>::new(-0.5, 0.0),
+        |_| true,
+    );
+    let solids = ps.len();
+    lattice(
+        &mut ps,
+        ([0.625, 0.3], [0.8, 0.65]),
+        dx,
+        (0, RHO_F),
+        Vector::<2>::zeros(),
+        |_| true,
+    );
+    let mut solid = SolidParams::<2>::default();
+    solid.tlmpm.contact = contact.then(|| mpm_tlmpm::ContactParams {
+        radius: mpm_tlmpm::ContactRadius::FromVolume,
+        obstacles: Vec::new(),
+    });
+    let mut s = DiqCoupled::new(
+        GridSpec::new(Vector::<2>::zeros(), dx, [n + 1, n + 1]),
+        params(2e-3, false),
+        solid,
+        materials(800.0, 1e5),
+        walls(false),
+        ps,
+    )
+    .unwrap();
+    let r = 0.5 * (dx / 2.0);
+    let momentum = |s: &DiqCoupled<2>| {
+        let p = s.particles();
+        (0..p.len()).fold(Vector::<2>::zeros(), |m, i| m + p.v[i] * p.mass[i])
+    };
+    let mean_vx = |s: &DiqCoupled<2>, range: std::ops::Range<usize>| {
+        let p = s.particles();
+        let len = range.len() as Real;
+        range.map(|i| p.v[i][0]).sum::<Real>() / len
+    };
+    let p0 = momentum(&s);
+    let scale: Real = {
+        let p = s.particles();
+        (0..p.len()).map(|i| p.mass[i] * p.v[i].norm()).sum()
+    };
+    let mut min_gap = Real::INFINITY;
+    while s.time() < 0.3 {
+        s.advance().unwrap();
+        let p = s.particles();
+        for a in 0..first_right {
+            for b in first_right..solids {
+                min_gap = min_gap.min((p.x[a] - p.x[b]).norm() / (2.0 * r));
+            }
+        }
+    }
+    let drift = (momentum(&s) - p0).norm() / scale;
+    let separating = mean_vx(&s, first_right..solids) - mean_vx(&s, 0..first_right);
+    (min_gap, drift, separating)
+}
+
+#[test]
+fn solid_solid_penalty_contact_acts_inside_the_coupled_step() {
+    let (gap, drift, separating) = colliding_blocks(true);
+    assert!(gap >= 0.5, "closest pair at {gap} (r_p + r_q)");
+    assert!(drift <= 1e-12, "momentum drift {drift:e} of Σ m|v|");
+    // Measured: closest pair 0.84 (r_p + r_q), drift 1e-15, separating at 0.58 m/s.
+    assert!(
+        separating > 0.25,
+        "the blocks must bounce: {separating} m/s"
+    );
+    // Without contact the blocks pass into each other.
+    let (gap_off, _, separating_off) = colliding_blocks(false);
+    assert!(
+        gap_off < 0.25,
+        "without contact: closest pair at {gap_off} (r_p + r_q)"
+    );
+    assert!(
+        separating_off < -0.9,
+        "without contact they keep approaching: {separating_off}"
+    );
+}
+
+#[test]
+fn a_block_sinks_onto_the_tank_floor_and_stays_above_it() {
+    // ρs = 2000 kg/m² in 0.4 m of water: the block sinks, and the walls, obstacles of Eq. 4's
+    // solid–boundary contact, hold it on the floor y = 0.
+    let n = 16;
+    let dx = 1.0 / n as Real;
+    let (x0, x1, bottom) = (0.375, 0.625, 0.125);
+    let inside = |x: &Vector<2>| x[0] > x0 && x[0] < x1 && x[1] > bottom;
+    let mut ps = Particles::new(columns());
+    lattice(
+        &mut ps,
+        ([0.0, 0.0], [1.0, 0.4]),
+        dx,
+        (0, RHO_F),
+        Vector::<2>::zeros(),
+        |x| !inside(x),
+    );
+    lattice(
+        &mut ps,
+        ([x0, bottom], [x1, bottom + 0.25]),
+        dx,
+        (1, 2000.0),
+        Vector::<2>::zeros(),
+        |_| true,
+    );
+    let mut solid = SolidParams::<2>::default();
+    solid.tlmpm.contact = Some(mpm_tlmpm::ContactParams {
+        radius: mpm_tlmpm::ContactRadius::FromVolume,
+        obstacles: vec![mpm_tlmpm::Obstacle::Walls {
+            min: Vector::<2>::zeros(),
+            max: Vector::<2>::from_element(1.0),
+        }],
+    });
+    let mut s = DiqCoupled::new(
+        GridSpec::new(Vector::<2>::from_element(-dx), dx, [n + 3, n + 3]),
+        params(5e-3, true),
+        solid,
+        materials(2000.0, 1e5),
+        walls(true),
+        ps,
+    )
+    .unwrap();
+    let lowest = |s: &DiqCoupled<2>| {
+        let p = s.particles();
+        s.solid_indices()
+            .iter()
+            .map(|&i| p.x[i][1])
+            .fold(Real::INFINITY, Real::min)
+    };
+    let mean_vy = |s: &DiqCoupled<2>| {
+        let p = s.particles();
+        let ids = s.solid_indices();
+        ids.iter().map(|&i| p.v[i][1]).sum::<Real>() / ids.len() as Real
+    };
+    let mut deepest = Real::INFINITY;
+    let mut fastest: Real = 0.0;
+    while s.time() < 1.0 {
+        s.advance().unwrap();
+        deepest = deepest.min(lowest(&s));
+        fastest = fastest.max(-mean_vy(&s));
+    }
+    // The lowest row starts h/2 = dx/4 above its cell's bottom, 0.125 m up; it must land
+    // (come within a cell of the floor) without passing its centre through y = 0.
+    assert!(
+        deepest < dx,
+        "the block never reached the floor: {deepest} m"
+    );
+    assert!(
+        deepest > 0.0,
+        "a solid particle went through the floor: {deepest} m"
+    );
+    assert!(fastest > 0.1, "it must have sunk: {fastest} m/s at most");
+    assert!(
+        mean_vy(&s).abs() < 0.1 * fastest,
+        "resting on the floor: mean vy {} m/s (fastest sinking {fastest} m/s)",
+        mean_vy(&s)
+    );
+}
