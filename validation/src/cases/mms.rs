@@ -18,9 +18,10 @@ use crate::report::{
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
 use mpm_core::material::Lame;
 use mpm_core::{
-    Columns, Dim, DimOps, GridSpec, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector,
+    Columns, Dim, DimOps, GridSpec, Kernel, Matrix, ParticleInit, Particles, Real, TimeStepPolicy,
+    Vector,
 };
-use mpm_explicit::{BodyForce, ExplicitParams, ExplicitSolver};
+use mpm_explicit::{BodyForce, ExplicitParams, ExplicitSolver, Transfer};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -48,6 +49,13 @@ pub struct MmsConfig {
     pub per_axis: usize,
     /// Simulated time in periods `2/c` of the solution (dimensionless).
     pub periods: Real,
+    /// Interpolation kernel.
+    pub kernel: Kernel,
+    /// Velocity transfer.
+    pub transfer: Transfer,
+    /// Where the error is measured: every particle (`None`) or those whose reference position
+    /// lies at least this distance (m) from every face (the interior, away from the walls).
+    pub interior: Option<Real>,
 }
 
 impl Default for MmsConfig {
@@ -60,6 +68,9 @@ impl Default for MmsConfig {
             cfl: 0.3,
             per_axis: 2,
             periods: 1.0,
+            kernel: Kernel::Quadratic,
+            transfer: Transfer::Apic,
+            interior: None,
         }
     }
 }
@@ -193,6 +204,8 @@ where
         model.body_force(&reference[p], t)
     }));
     let params = ExplicitParams {
+        kernel: cfg.kernel,
+        transfer: cfg.transfer,
         time_step: TimeStepPolicy::Fixed { dt },
         body_force: Some(force),
         ..ExplicitParams::default()
@@ -201,7 +214,8 @@ where
     Ok((solver, xs))
 }
 
-/// Volume-weighted RMS (m) over particles of `|x_p − X_p − u(X_p, t)|`.
+/// Volume-weighted RMS (m) over particles (those of the interior with
+/// [`MmsConfig::interior`]) of `|x_p − X_p − u(X_p, t)|`.
 pub fn rms_error<const D: usize>(
     cfg: &MmsConfig,
     solver: &ExplicitSolver<D>,
@@ -214,7 +228,11 @@ where
     let s = (cfg.speed() * PI * t).sin();
     let ps = solver.particles();
     let (mut num, mut den) = (0.0, 0.0);
+    let margin = cfg.interior.unwrap_or(0.0);
     for (p, x_ref) in reference.iter().enumerate() {
+        if x_ref.iter().any(|&x| x < margin || x > 1.0 - margin) {
+            continue;
+        }
         let u = x_ref.map(|x| cfg.amplitude * (2.0 * PI * x).sin() * s);
         let e = ps.x[p] - x_ref - u;
         num += ps.volume0[p] * e.norm_squared();

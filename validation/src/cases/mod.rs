@@ -8,6 +8,7 @@ pub mod granular_slope;
 pub mod hydrostatic;
 pub mod hydrostatic_cbgeo;
 pub mod mms;
+pub mod mms_order;
 pub mod multigrid;
 pub mod tlmpm;
 
@@ -55,6 +56,10 @@ pub static REGISTRY: &[&dyn Case] = &[
     &FnCase {
         name: mms::NAME_3D,
         run: mms::case::<3>,
+    },
+    &FnCase {
+        name: mms_order::NAME,
+        run: mms_order::case,
     },
     &FnCase {
         name: bar::NAME,
