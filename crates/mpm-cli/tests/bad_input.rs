@@ -690,6 +690,23 @@ fn tlmpm_keys_fit_their_solver() {
             "tlmpm.linear_solver",
             "linear_solver",
         ),
+        // An unknown time scheme, and a time scheme with the explicit integrator.
+        (
+            tl.replace(
+                "integrator = \"implicit\"",
+                "integrator = \"implicit\"\ntime_scheme = \"crank\"",
+            ),
+            "time_scheme",
+            "time_scheme",
+        ),
+        (
+            tl.replace(
+                "integrator = \"implicit\"",
+                "integrator = \"explicit\"\ntime_scheme = \"newmark\"",
+            ),
+            "tlmpm.time_scheme",
+            "time_scheme",
+        ),
         (
             tl.replace("contact = true", "contact = false"),
             "tlmpm.contact",

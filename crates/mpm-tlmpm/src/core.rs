@@ -244,10 +244,11 @@ macro_rules! solver_seam {
 }
 pub(crate) use solver_seam;
 
-/// The step result of either solver as a [`mpm_core::StepInfo`].
+/// The step result of either solver as a [`mpm_core::StepInfo`], from its solves and their
+/// residual histories.
 pub(crate) fn step_info(
     (dt, retries, time): (Real, u32, Real),
-    solves: Vec<SolveInfo>,
+    (solves, residual_histories): (Vec<SolveInfo>, Vec<(&'static str, Vec<Real>)>),
     contact: Option<ContactStats>,
     reference_updated: bool,
 ) -> StepInfo {
@@ -264,6 +265,7 @@ pub(crate) fn step_info(
         time,
         solves,
         events,
+        residual_histories,
     }
 }
 
@@ -364,8 +366,11 @@ pub(crate) struct Core<const D: usize> {
     pub external: Vec<Vector<D>>,
     /// Applied per-particle forces f_p (N), e.g. a tip load; empty when there are none.
     pub particle_forces: Vec<Vector<D>>,
-    /// Node displacements of the step, u = Δt v^{n+1} (m).
+    /// Node displacements of the step, u = x^{n+1} − x^n (m); `Δt v^{n+1}` except with Newmark.
     pub displacement: Vec<Vector<D>>,
+    /// End-of-step node velocities v^{n+1} (m/s) of a scheme where they are not `u/Δt`
+    /// (Newmark: `2u/Δt − v̂`); empty otherwise. Scratch of the current attempt, not state.
+    pub end_velocity: Vec<Vector<D>>,
     /// G2P results awaiting the guard checks.
     pub updates: Vec<Update<D>>,
     /// The contact stage, when contact is on.
@@ -419,6 +424,7 @@ where
             external: Vec::new(),
             particle_forces: Vec::new(),
             displacement: Vec::new(),
+            end_velocity: Vec::new(),
             updates: Vec::new(),
             contact,
             adaptive,
@@ -721,7 +727,10 @@ where
         };
         transfer::grid_to_particles(
             &self.reference,
-            &self.displacement,
+            (
+                &self.displacement,
+                (!self.end_velocity.is_empty()).then_some(&self.end_velocity[..]),
+            ),
             dt,
             (&self.particles.x, rel),
             flip,
@@ -787,8 +796,12 @@ where
     pub fn commit(&mut self, dt: Real) {
         if self.params.transfer == Transfer::Persistent {
             self.node_velocity.clear();
-            self.node_velocity
-                .extend(self.displacement.iter().map(|u| u / dt));
+            if self.end_velocity.is_empty() {
+                self.node_velocity
+                    .extend(self.displacement.iter().map(|u| u / dt));
+            } else {
+                self.node_velocity.extend_from_slice(&self.end_velocity);
+            }
         }
         let Particles {
             x,

@@ -207,7 +207,7 @@ where
         let info = self.step().map_err(|e| e.erase("Newton"))?;
         Ok(step_info(
             (info.dt, info.retries, info.time),
-            Vec::new(),
+            (Vec::new(), Vec::new()),
             info.contact,
             info.reference_updated,
         ))

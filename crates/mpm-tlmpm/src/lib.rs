@@ -73,6 +73,6 @@ pub use mpm_linalg::CholeskyError;
 pub use newton::{fitted_order, NewtonInfo};
 pub use params::{
     ContactParams, FixedRegion, ImplicitParams, LineSearch, LinearSolver, NewtonParams,
-    ReferenceUpdate, SpdProjection, TlmpmParams, Transfer,
+    ReferenceUpdate, SpdProjection, TimeScheme, TlmpmParams, Transfer,
 };
 pub use reference::ReferenceConfig;

@@ -192,6 +192,7 @@ where
             ..NewtonParams::default()
         },
         linear: LinearSolver::Cholesky,
+        ..ImplicitParams::default()
     };
     let mut solver = ImplicitTlmpm::new(
         grid_around(bounds, dx, 3),
@@ -413,6 +414,7 @@ fn loaded_column() -> (Real, Real) {
                     ..NewtonParams::default()
                 },
                 linear: LinearSolver::Cholesky,
+                ..ImplicitParams::default()
             },
             vec![uniaxial(e, rho)],
             block(bounds, h, rho, |_| Vector::<2>::zeros()),

@@ -119,6 +119,7 @@ pub(super) fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
             },
             _ => LinearSolver::Cholesky,
         },
+        scheme: t.time_scheme.unwrap_or_default(),
     }
 }
 
