@@ -248,6 +248,14 @@ pub fn fit_step_response(samples: &[(Real, Real)]) -> Option<StepFit> {
     })
 }
 
+/// [`fit_step_response`] on a whole deflection history, strided to at most [`FIT_SAMPLES`]
+/// samples.
+pub fn fit_history(samples: &[(Real, Real)]) -> Option<StepFit> {
+    let stride = samples.len().div_ceil(FIT_SAMPLES);
+    let strided: Vec<(Real, Real)> = samples.iter().copied().step_by(stride).collect();
+    fit_step_response(&strided)
+}
+
 /// The tip-deflection record of one cantilever run (see [`history`]).
 #[derive(Clone, Debug)]
 pub struct History {
@@ -386,9 +394,7 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         newton,
         label,
     } = h;
-    let stride = samples.len().div_ceil(FIT_SAMPLES);
-    let strided: Vec<(Real, Real)> = samples.iter().copied().step_by(stride).collect();
-    let fit = fit_step_response(&strided).ok_or("no step response to fit")?;
+    let fit = fit_history(&samples).ok_or("no step response to fit")?;
     let static_ratio = fit.level / delta;
     let period_ratio = fit.period() / period();
     let peak = samples

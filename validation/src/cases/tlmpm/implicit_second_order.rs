@@ -12,15 +12,22 @@
 //! `n` of a run falls on step `n k` of the reference.
 //!
 //! **Measures.** The first peak is the largest tip deflection `w` at `t ≤ 0.75 T₁`; its error is
-//! `|w_peak − w_peak,ref| / w_peak,ref` (the run's `error`). The trajectory error is
-//! `max_n |w(t_n) − w_ref(t_n)| / w_peak,ref` over the period. The order is the least-squares
-//! slope of ln(trajectory error) against ln k over 3 ≤ k ≤ 30: at 100 `dt_e` the second mode has
-//! ω₂Δt ≈ 1.6 and is outside the asymptotic range.
+//! `|w_peak − w_peak,ref| / w_peak,ref` (the run's `error`). The mode-1 error fits each record
+//! with `cantilever_tip_load`'s damped step response and compares the complex amplitudes
+//! `e^{(−σ + iΩ) T}` after one reference period T: it holds backward Euler's damping (first
+//! order in Δt) and both schemes' phase error (second order). The order is the least-squares
+//! slope of ln(mode-1 error) against ln k over 10 ≤ k ≤ 100 (below 10 the phase errors,
+//! ~1e-5, are at the level of the fits). The trajectory error
+//! `max_n |w(t_n) − w_ref(t_n)| / w_peak,ref` over the run is also reported: the step load
+//! excites every bending mode with a share ∝ 1/ω_n², and Newmark leaves the modes with
+//! `ω_n Δt ≳ 1` undamped with an O(1) phase error, so this max-norm error falls only at about
+//! first order (measured 0.85 over 3–100 `dt_e`) although each resolved mode converges at second
+//! order.
 //!
-//! **Acceptance.** Newmark's first peak within 3% of the reference at 10 `dt_e` and its
-//! trajectory error falling at an order within [1.7, 2.3]; every run completes.
+//! **Acceptance.** Newmark's first peak within 3% of the reference at 10 `dt_e` and its mode-1
+//! error falling at an order within [1.7, 2.3]; every run completes.
 
-use super::cantilever_tip_load::{history, period, History};
+use super::cantilever_tip_load::{fit_history, history, period, History, StepFit};
 use super::{result, sweep_labelled};
 use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::Real;
@@ -34,13 +41,25 @@ pub const NAME: &str = "implicit_second_order";
 /// Cells through the thickness.
 const CELLS: usize = 4;
 /// Simulated time in Euler–Bernoulli periods (dimensionless).
-const PERIODS: Real = 1.0;
+const PERIODS: Real = 2.0;
 /// Acceptance bound on Newmark's first-peak error at 10 `dt_e` (dimensionless).
 pub const MAX_PEAK_ERROR_10X: Real = 0.03;
 /// Accepted range of Newmark's measured order in Δt.
 pub const ORDER_RANGE: (Real, Real) = (1.7, 2.3);
 /// Factors of `dt_e` over which the order is fitted.
-const ORDER_FACTORS: (Real, Real) = (3.0, 30.0);
+const ORDER_FACTORS: (Real, Real) = (10.0, 100.0);
+
+/// The mode-1 error after one period of the reference fit `reference`: the distance between the
+/// fitted complex amplitudes `e^{(−σ + iΩ) T}` of `fit` and of the reference at
+/// `T = 2π/Ω_ref`, relative to the initial amplitude (dimensionless). It holds both the
+/// amplitude error (backward Euler's damping, first order) and the phase error (second order for
+/// both schemes).
+fn mode1_error(fit: &StepFit, reference: &StepFit) -> Real {
+    let t = reference.period();
+    let (a, b) = ((-fit.sigma * t).exp(), (-reference.sigma * t).exp());
+    let phase = fit.omega * t - 2.0 * std::f64::consts::PI;
+    (a * a + b * b - 2.0 * a * b * phase.cos()).max(0.0).sqrt()
+}
 
 /// The largest deflection at `t ≤ 0.75 T₁` (m).
 fn first_peak(samples: &[(Real, Real)]) -> Real {
@@ -72,6 +91,11 @@ fn record(h: &History, scheme: Option<TimeScheme>, k: usize, reference: &[(Real,
         .fold(0.0, Real::max)
         / peak_ref;
     let mut extra = BTreeMap::new();
+    if let (Some(f), Some(r)) = (fit_history(&h.samples), fit_history(reference)) {
+        extra.insert("mode1_error".into(), mode1_error(&f, &r));
+        extra.insert("period_ratio".into(), f.period() / r.period());
+        extra.insert("decay_per_period".into(), f.decay_per_period());
+    }
     extra.insert("scheme".into(), scheme_code(scheme));
     extra.insert("dt_factor".into(), k as Real);
     extra.insert("dt_explicit".into(), h.dt_explicit);
@@ -130,9 +154,11 @@ pub fn case(mode: Mode) -> CaseResult {
             progress(
                 NAME,
                 &format!(
-                    "{}: first peak {:+.3}%, trajectory error {:.3e}, {:.2} Newton/step, {:.2} s",
+                    "{}: first peak {:+.3}%, mode-1 error {:.3e}, trajectory error {:.3e}, {:.2} \
+                     Newton/step, {:.2} s",
                     scheme.map_or("explicit", TimeScheme::name),
                     100.0 * (r.extra["peak_ratio"] - 1.0),
+                    r.extra.get("mode1_error").copied().unwrap_or(Real::NAN),
                     r.extra["trajectory_error"],
                     r.extra["newton_per_step"],
                     r.wall_s
@@ -144,17 +170,20 @@ pub fn case(mode: Mode) -> CaseResult {
     let description = format!(
         "The cantilever of cantilever_tip_load (L = 1 m, h = 0.1 m, Neo-Hookean E = 1e7 Pa, nu = \
          0, rho = 1000 kg/m^2, h/dx = {CELLS}, built-in end, step tip load ~ 0.01 L static \
-         deflection), {PERIODS} T1 = {:.4} s simulated, persistent transfer (no transfer \
+         deflection), {PERIODS} T1 (T1 = {:.4} s) simulated, persistent transfer (no transfer \
          dissipation). Reference: explicit TLMPM at dt_e = dx/c. Implicit TLMPM with backward \
          Euler and with Newmark average acceleration (beta = 1/4, gamma = 1/2), Newton defaults, \
          sparse Cholesky, at k dt_e. error = |first peak - reference first peak| / reference \
          first peak, the first peak being the largest tip deflection at t <= 0.75 T1; \
          extra.trajectory_error = max over the run's steps of |w - w_ref| / reference first \
-         peak; extra.peak_ratio = first peak / reference first peak; extra.peak_over_static = \
+         peak; extra.mode1_error = |exp((-s + iW) T) - exp(-s_ref T)| with T = 2 pi/W_ref from \
+         the fits w = d + exp(-s t)(a cos(W t) + b sin(W t)) of the run and the reference; \
+         extra.period_ratio = fitted period / reference fitted period; \
+         extra.decay_per_period = exp(-s 2 pi/W); extra.peak_ratio = first peak / reference first peak; extra.peak_over_static = \
          first peak / Euler-Bernoulli static deflection; extra.scheme = 0 explicit, 1 backward \
          Euler, 2 Newmark; extra.dt_factor = k; extra.newton_per_step = mean Newton iterations; \
          wall_s = time inside step (work-precision).",
-        PERIODS * period()
+        period()
     );
     let (order, verdict) = verdict(&runs, failures.is_empty());
     result(
@@ -193,7 +222,10 @@ fn verdict(runs: &[Run], complete: bool) -> (Option<Real>, (bool, String)) {
     let order = |code: Real| {
         let pts: Vec<(Real, Real)> = of(code)
             .iter()
-            .map(|r| (r.extra["dt_factor"], r.extra["trajectory_error"]))
+            .map(|r| {
+                let e = r.extra.get("mode1_error").copied().unwrap_or(Real::NAN);
+                (r.extra["dt_factor"], e)
+            })
             .filter(|p| (ORDER_FACTORS.0..=ORDER_FACTORS.1).contains(&p.0))
             .collect();
         log_slope(&pts)
@@ -212,7 +244,7 @@ fn verdict(runs: &[Run], complete: bool) -> (Option<Real>, (bool, String)) {
         .filter(|r| r.extra["scheme"] > 0.0)
         .map(|r| {
             format!(
-                "{} {}x: first peak {:+.2}%, trajectory {:.2e}, {:.2} s",
+                "{} {}x: first peak {:+.2}%, mode-1 error {:.2e}, trajectory {:.2e}, {:.2} s",
                 if r.extra["scheme"] == 1.0 {
                     "backward Euler"
                 } else {
@@ -220,6 +252,7 @@ fn verdict(runs: &[Run], complete: bool) -> (Option<Real>, (bool, String)) {
                 },
                 r.extra["dt_factor"],
                 100.0 * (r.extra["peak_ratio"] - 1.0),
+                r.extra.get("mode1_error").copied().unwrap_or(Real::NAN),
                 r.extra["trajectory_error"],
                 r.wall_s
             )
@@ -232,7 +265,7 @@ fn verdict(runs: &[Run], complete: bool) -> (Option<Real>, (bool, String)) {
             ok,
             format!(
                 "Acceptance: Newmark's first peak within {}% of the explicit reference at 10 dt_e \
-                 (measured {}), and its trajectory error falling at an order in [{}, {}] over \
+                 (measured {}), and its mode-1 error falling at an order in [{}, {}] over \
                  {}-{} dt_e (measured {}; backward Euler {}). Explicit reference: {explicit_wall:.2} \
                  s. Work-precision: {}.",
                 100.0 * MAX_PEAK_ERROR_10X,
