@@ -696,7 +696,7 @@ fn tlmpm_keys_fit_their_solver() {
                 "integrator = \"implicit\"",
                 "integrator = \"implicit\"\ntime_scheme = \"crank\"",
             ),
-            "time_scheme",
+            "tlmpm.time_scheme",
             "time_scheme",
         ),
         (

@@ -147,7 +147,7 @@ pub(crate) fn state_from<const D: usize>(
 /// The [`Solver`] and [`TotalLagrangian`] implementations both TLMPM solvers share, for a
 /// solver type with a `core: Core<D>` field and the inherent methods `stage_plan`, `stable_dt`,
 /// `seam_step` (the step as a [`mpm_core::StepInfo`]), `seam_stage_times` and `rebuild` (the same
-/// set-up around other particles).
+/// set-up around other particles); `$name` maps the solver to its name.
 macro_rules! solver_seam {
     ($ty:ident, $name:expr, $bound:expr, $limits_fixed_dt:expr) => {
         impl<const D: usize> mpm_core::Solver<D> for $ty<D>
@@ -155,7 +155,7 @@ macro_rules! solver_seam {
             Dim<D>: DimOps<D>,
         {
             fn name(&self) -> &'static str {
-                $name
+                ($name)(self)
             }
 
             fn spec(&self) -> &GridSpec<D> {

@@ -183,7 +183,7 @@ where
 
 crate::core::solver_seam!(
     ExplicitTlmpm,
-    "explicit TLMPM (symplectic Euler)",
+    |_: &Self| "explicit TLMPM (symplectic Euler)",
     "dx / max(|v| + c)",
     true
 );

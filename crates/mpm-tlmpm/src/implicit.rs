@@ -799,7 +799,10 @@ where
 
 crate::core::solver_seam!(
     ImplicitTlmpm,
-    "implicit TLMPM (backward Euler, Newton)",
+    |s: &Self| match s.implicit.scheme {
+        TimeScheme::BackwardEuler => "implicit TLMPM (backward Euler, Newton)",
+        TimeScheme::Newmark => "implicit TLMPM (Newmark average acceleration, Newton)",
+    },
     "dx / max|v| (backward Euler has no wave-speed limit)",
     false
 );
