@@ -181,6 +181,7 @@ fn linear_momentum_is_conserved_without_gravity_or_boundaries() {
                 ..NewtonParams::default()
             },
             linear,
+            ..ImplicitParams::default()
         };
         let params = TlmpmParams {
             time_step: TimeStepPolicy::Fixed { dt: 0.02 },
