@@ -70,28 +70,7 @@ fn positions(path: &Path) -> (f64, Vec<[f64; 2]>) {
 
 #[test]
 fn cantilever_step_load_matches_euler_bernoulli() {
-    let d = tmpdir("tlmpm-cantilever");
-    let scene = write(&d, "cantilever.toml", CANTILEVER);
-    let out = d.join("out");
-    let o = cli(&[
-        "run",
-        &scene.to_string_lossy(),
-        "--out",
-        &out.to_string_lossy(),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let snaps = numbered_files(&out, "snap_");
-    let (_, x0) = positions(&snaps[0].1);
-    let tip: Vec<usize> = (0..x0.len()).filter(|&p| x0[p][0] > 0.98).collect();
-    let history: Vec<(f64, f64)> = snaps
-        .iter()
-        .map(|(_, f)| {
-            let (t, x) = positions(f);
-            let w = tip.iter().map(|&p| x[p][1] - x0[p][1]).sum::<f64>() / tip.len() as f64;
-            (t, -w)
-        })
-        .collect();
+    let (history, _) = tip_history(&tmpdir("tlmpm-cantilever"), CANTILEVER);
     // Euler–Bernoulli: static deflection P L³/(3EI), first period 2π/ω₁.
     let (p, l, e, h, rho): (f64, f64, f64, f64, f64) = (40.0, 1.0, 1e7, 0.1, 1000.0);
     let i = h * h * h / 12.0;
@@ -137,9 +116,9 @@ fn cantilever_step_load_matches_euler_bernoulli() {
     );
 }
 
-/// Runs `scene` into `dir/out` and returns the first maximum of the tip deflection over
-/// `t < 0.45 s` (m) and `summary.json`.
-fn first_peak_and_summary(dir: &Path, scene: &str) -> (f64, serde_json::Value) {
+/// Runs `scene` into `dir/out` and returns the tip deflection `(t, w)` of every snapshot
+/// (s, m; the mean downward displacement of the particles at X > 0.98 m) and `summary.json`.
+fn tip_history(dir: &Path, scene: &str) -> (Vec<(f64, f64)>, serde_json::Value) {
     let path = write(dir, "scene.toml", scene);
     let out = dir.join("out");
     let o = cli(&[
@@ -153,14 +132,25 @@ fn first_peak_and_summary(dir: &Path, scene: &str) -> (f64, serde_json::Value) {
     let snaps = numbered_files(&out, "snap_");
     let (_, x0) = positions(&snaps[0].1);
     let tip: Vec<usize> = (0..x0.len()).filter(|&p| x0[p][0] > 0.98).collect();
-    let peak = snaps
+    let history = snaps
         .iter()
-        .map(|(_, f)| positions(f))
-        .filter(|(t, _)| *t < 0.45)
-        .map(|(_, x)| -tip.iter().map(|&p| x[p][1] - x0[p][1]).sum::<f64>() / tip.len() as f64)
-        .fold(f64::MIN, f64::max);
+        .map(|(_, f)| {
+            let (t, x) = positions(f);
+            let w = tip.iter().map(|&p| x[p][1] - x0[p][1]).sum::<f64>() / tip.len() as f64;
+            (t, -w)
+        })
+        .collect();
     let summary = std::fs::read_to_string(out.join("summary.json")).expect("summary");
-    (peak, serde_json::from_str(&summary).expect("json"))
+    (history, serde_json::from_str(&summary).expect("json"))
+}
+
+/// The first maximum of the tip deflection of [`tip_history`] over `t < 0.45 s` (m).
+fn first_peak_and_summary(dir: &Path, scene: &str) -> (f64, serde_json::Value) {
+    let (history, summary) = tip_history(dir, scene);
+    let peak = (history.iter().filter(|(t, _)| *t < 0.45))
+        .map(|(_, w)| *w)
+        .fold(f64::MIN, f64::max);
+    (peak, summary)
 }
 
 #[test]

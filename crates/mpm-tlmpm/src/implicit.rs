@@ -467,35 +467,26 @@ fn start_step<const D: usize>(
 ) where
     Dim<D>: DimOps<D>,
 {
-    let Core {
-        reference,
-        constraints,
-        models,
-        particles,
-        grid_velocity,
-        external,
-        displacement,
-        adaptive,
-        ..
-    } = core;
-    let masses = reference.node_masses();
+    let (vh, external, constraints) = (&core.grid_velocity, &core.external, &core.constraints);
+    let masses = core.reference.node_masses();
+    let displacement = &mut core.displacement;
     target.clear();
     displacement.clear();
     match scheme {
         TimeScheme::BackwardEuler => {
-            target.extend(grid_velocity.iter().map(|v| v * dt));
+            target.extend(vh.iter().map(|v| v * dt));
             displacement.extend((0..masses.len()).map(|i| {
-                let free = (grid_velocity[i] + external[i] * (dt / masses[i])) * dt;
+                let free = (vh[i] + external[i] * (dt / masses[i])) * dt;
                 constraints.displacement(i, free, dt)
             }));
         }
         TimeScheme::Newmark => {
-            let (law, def_grad) = split_law(models, particles, adaptive.as_ref());
+            let (law, def_grad) = split_law(&core.models, &core.particles, core.adaptive.as_ref());
             stress.resize(def_grad.len(), Matrix::<D>::zeros());
             law.weighted_stresses(def_grad, stress);
             for (i, &m) in masses.iter().enumerate() {
-                let a = (internal_force(reference, stress, i).0 + external[i]) / m;
-                let v = grid_velocity[i] * dt;
+                let a = (internal_force(&core.reference, stress, i).0 + external[i]) / m;
+                let v = vh[i] * dt;
                 target.push(v + a * (0.25 * dt * dt));
                 displacement.push(constraints.displacement(i, v + a * (0.5 * dt * dt), dt));
             }

@@ -382,19 +382,8 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         Transfer::Apic,
         PERIODS,
     )?;
-    let History {
-        samples,
-        dx,
-        dt_explicit,
-        dt,
-        steps,
-        particles: np,
-        delta,
-        wall,
-        newton,
-        label,
-    } = h;
-    let fit = fit_history(&samples).ok_or("no step response to fit")?;
+    let (samples, dt, delta, label) = (&h.samples, h.dt, h.delta, h.label);
+    let fit = fit_history(samples).ok_or("no step response to fit")?;
     let static_ratio = fit.level / delta;
     let period_ratio = fit.period() / period();
     let peak = samples
@@ -404,7 +393,7 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         / delta;
     let mut extra = BTreeMap::new();
     extra.insert("dt_factor".into(), factor.unwrap_or(0.0));
-    extra.insert("dt_explicit".into(), dt_explicit);
+    extra.insert("dt_explicit".into(), h.dt_explicit);
     extra.insert("static_ratio".into(), static_ratio);
     extra.insert("period_ratio".into(), period_ratio);
     extra.insert("period_error".into(), (period_ratio - 1.0).abs());
@@ -416,7 +405,7 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         let (decay_be, period_be) = backward_euler_mode(omega1(), dt);
         extra.insert("decay_be".into(), decay_be);
         extra.insert("period_ratio_be".into(), period_be);
-        extra.insert("newton_per_step".into(), newton as Real / steps as Real);
+        extra.insert("newton_per_step".into(), h.newton as Real / h.steps as Real);
     }
     progress(
         NAME,
@@ -430,11 +419,11 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         ),
     );
     Ok(Run {
-        dx,
+        dx: h.dx,
         dt,
-        particles: np,
-        steps,
-        wall_s: wall.as_secs_f64(),
+        particles: h.particles,
+        steps: h.steps,
+        wall_s: h.wall.as_secs_f64(),
         error: (static_ratio - 1.0).abs(),
         extra,
     })
