@@ -957,3 +957,19 @@ fn bad_damping_ramp_and_geostatic_values_exit_2_at_their_key() {
     );
     expect_bad(&d, "k0.toml", &t, "check", "bodies[0].k0", Some("k0"));
 }
+
+#[test]
+fn a_time_scheme_is_refused_with_the_diq_coupling() {
+    // The DIQ coupling drives the elastic solve stage by stage with backward-Euler velocities
+    // (u/dt); `tlmpm.time_scheme` is therefore an error there, not silently ignored.
+    let d = tmpdir("diq-time-scheme");
+    let t = format!("{DIQ_COUPLED_2D}\n[tlmpm]\ntime_scheme = \"newmark\"\n");
+    expect_bad(
+        &d,
+        "diq.toml",
+        &t,
+        "check",
+        "tlmpm.time_scheme",
+        Some("time_scheme"),
+    );
+}
