@@ -251,6 +251,8 @@ struct Runner<'a, const D: usize> {
     retries: u64,
     /// Iterations and residuals of the solver's iterative solves over this run's steps.
     solves: BTreeMap<&'static str, SolveStats>,
+    /// Per-step residual histories of the solves that report them, bounded (see [`ResidualLog`]).
+    residual_logs: BTreeMap<&'static str, ResidualLog>,
     first_step: u64,
     first_time: f64,
     io_seconds: f64,
@@ -363,6 +365,7 @@ where
             steps_this_run: 0,
             retries: 0,
             solves: BTreeMap::new(),
+            residual_logs: BTreeMap::new(),
             io_seconds: 0.0,
             checkpoints_written: Vec::new(),
             monitors: Vec::new(),
@@ -809,6 +812,12 @@ where
                 .or_default()
                 .add(s.iterations, s.residual);
         }
+        for (name, r) in &info.residual_histories {
+            self.residual_logs
+                .entry(name)
+                .or_default()
+                .push(self.solver.steps(), r);
+        }
     }
 
     fn print_report(&self, wall_s: f64) {
@@ -914,7 +923,13 @@ where
         let solves: serde_json::Map<String, serde_json::Value> = self
             .solves
             .iter()
-            .map(|(n, s)| (n.to_string(), s.json()))
+            .map(|(n, s)| {
+                let mut j = s.json();
+                if let Some(log) = self.residual_logs.get(n) {
+                    j["residual_histories"] = log.json();
+                }
+                (n.to_string(), j)
+            })
             .collect();
         let (status, error) = match (failure, interrupted) {
             (None, None) => ("ok", None),
@@ -1055,6 +1070,54 @@ impl SolveStats {
                 "max_per_step": self.max,
             },
             "final_residual": { "max": self.residual_max, "last": self.residual_last },
+        })
+    }
+}
+
+/// Per-step residual-norm histories of one kind of solve over a run: every step while the run
+/// has at most `RESIDUAL_HEAD + RESIDUAL_TAIL` steps, else the first `RESIDUAL_HEAD` and the last
+/// `RESIDUAL_TAIL` (the iteration counts of all steps are in [`SolveStats`]), so that
+/// `summary.json` stays small for long runs.
+#[derive(Clone, Debug, Default)]
+struct ResidualLog {
+    /// `(step, residual norms)` of the first steps.
+    head: Vec<(u64, Vec<f64>)>,
+    /// `(step, residual norms)` of the latest steps.
+    tail: std::collections::VecDeque<(u64, Vec<f64>)>,
+    /// Steps whose histories were dropped.
+    omitted: u64,
+}
+
+/// Steps at the start of a run whose residual histories `summary.json` keeps.
+const RESIDUAL_HEAD: usize = 100;
+/// Latest steps whose residual histories `summary.json` keeps.
+const RESIDUAL_TAIL: usize = 100;
+
+impl ResidualLog {
+    fn push(&mut self, step: u64, residuals: &[f64]) {
+        if self.head.len() < RESIDUAL_HEAD {
+            self.head.push((step, residuals.to_vec()));
+            return;
+        }
+        if self.tail.len() == RESIDUAL_TAIL {
+            self.tail.pop_front();
+            self.omitted += 1;
+        }
+        self.tail.push_back((step, residuals.to_vec()));
+    }
+
+    fn json(&self) -> serde_json::Value {
+        let steps: Vec<serde_json::Value> = (self.head.iter().chain(&self.tail))
+            .map(|(step, r)| json!({ "step": step, "residuals": r }))
+            .collect();
+        json!({
+            "kept": format!(
+                "every step up to {} steps, else the first {RESIDUAL_HEAD} and the last \
+                 {RESIDUAL_TAIL}",
+                RESIDUAL_HEAD + RESIDUAL_TAIL
+            ),
+            "omitted_steps": self.omitted,
+            "steps": steps,
         })
     }
 }

@@ -690,6 +690,23 @@ fn tlmpm_keys_fit_their_solver() {
             "tlmpm.linear_solver",
             "linear_solver",
         ),
+        // An unknown time scheme, and a time scheme with the explicit integrator.
+        (
+            tl.replace(
+                "integrator = \"implicit\"",
+                "integrator = \"implicit\"\ntime_scheme = \"crank\"",
+            ),
+            "tlmpm.time_scheme",
+            "time_scheme",
+        ),
+        (
+            tl.replace(
+                "integrator = \"implicit\"",
+                "integrator = \"explicit\"\ntime_scheme = \"newmark\"",
+            ),
+            "tlmpm.time_scheme",
+            "time_scheme",
+        ),
         (
             tl.replace("contact = true", "contact = false"),
             "tlmpm.contact",
@@ -1116,5 +1133,21 @@ fn nodal_loads_and_tractions_belong_to_tlmpm_and_exit_2_at_their_key() {
         "check",
         "nodal_loads[0]",
         Some("[[nodal_loads]]"),
+    );
+}
+
+#[test]
+fn a_time_scheme_is_refused_with_the_diq_coupling() {
+    // The DIQ coupling drives the elastic solve stage by stage with backward-Euler velocities
+    // (u/dt); `tlmpm.time_scheme` is therefore an error there, not silently ignored.
+    let d = tmpdir("diq-time-scheme");
+    let t = format!("{DIQ_COUPLED_2D}\n[tlmpm]\ntime_scheme = \"newmark\"\n");
+    expect_bad(
+        &d,
+        "diq.toml",
+        &t,
+        "check",
+        "tlmpm.time_scheme",
+        Some("time_scheme"),
     );
 }

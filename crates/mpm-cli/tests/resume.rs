@@ -135,23 +135,48 @@ fn resume_tlmpm_2d_is_bitwise() {
     check_resume("tlmpm", TLMPM_SNOW_2D, 20, 40);
 }
 
+/// The TLMPM snow scene `t` turned into an elastic column (no reference updates, which would
+/// reset the node velocities) with persistent node velocities.
+fn persistent_elastic(t: &str) -> String {
+    t.replace(
+        "gravity = [0.0, -9.81]",
+        "gravity = [0.0, -9.81]\ntransfer = \"persistent\"",
+    )
+    .replace("[tlmpm.reference_update]\nepsilon = 0.01\neta = 0.01\n", "")
+    .replace(
+        "preset = \"snow\"\nE = 1e4",
+        "model = \"neo_hookean\"\nE = 1e4\nnu = 0.2\ndensity = 400.0",
+    )
+}
+
 #[test]
 fn resume_tlmpm_persistent_2d_is_bitwise() {
     // Persistent node velocities carry the state from step to step: the checkpoint holds them
     // (`tlmpm_node_v`), so the resumed run does not restart from a P2G transfer. An elastic
     // column (no reference updates, which would reset the node velocities) on penalty walls.
-    let t = TLMPM_SNOW_2D
-        .replace(
-            "gravity = [0.0, -9.81]",
-            "gravity = [0.0, -9.81]\ntransfer = \"persistent\"",
-        )
-        .replace("[tlmpm.reference_update]\nepsilon = 0.01\neta = 0.01\n", "")
-        .replace(
-            "preset = \"snow\"\nE = 1e4",
-            "model = \"neo_hookean\"\nE = 1e4\nnu = 0.2\ndensity = 400.0",
-        );
+    let t = persistent_elastic(TLMPM_SNOW_2D);
     assert!(!t.contains("preset") && !t.contains("reference_update"));
     check_resume("tlmpm-persistent", &t, 20, 40);
+}
+
+#[test]
+fn resume_tlmpm_newmark_2d_is_bitwise() {
+    // Newmark needs the start-of-step acceleration, which each step recomputes from the
+    // particles' F and the external forces (not stored): with persistent node velocities and
+    // APIC alike the checkpoint holds all a resumed run needs. A-ULMPM snow with APIC, and an
+    // elastic column with the persistent transfer.
+    let newmark = |t: &str| {
+        t.replace(
+            "integrator = \"implicit\"",
+            "integrator = \"implicit\"\ntime_scheme = \"newmark\"",
+        )
+    };
+    let t = newmark(TLMPM_SNOW_2D);
+    assert_ne!(t, TLMPM_SNOW_2D);
+    check_resume("tlmpm-newmark", &t, 20, 40);
+    let t = persistent_elastic(&newmark(TLMPM_SNOW_2D));
+    assert!(t.contains("persistent") && !t.contains("reference_update"));
+    check_resume("tlmpm-newmark-persistent", &t, 20, 40);
 }
 
 #[test]

@@ -103,28 +103,7 @@ fn cantilever_tip_traction_and_nodal_load_match_euler_bernoulli() {
 /// Runs the cantilever scene `text` (a step tip load of 40 N/m in all) and checks the static
 /// deflection, the period and the overshoot against Euler–Bernoulli.
 fn cantilever_matches_euler_bernoulli(name: &str, text: &str) {
-    let d = tmpdir(&format!("tlmpm-cantilever-{name}"));
-    let scene = write(&d, "cantilever.toml", text);
-    let out = d.join("out");
-    let o = cli(&[
-        "run",
-        &scene.to_string_lossy(),
-        "--out",
-        &out.to_string_lossy(),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let snaps = numbered_files(&out, "snap_");
-    let (_, x0) = positions(&snaps[0].1);
-    let tip: Vec<usize> = (0..x0.len()).filter(|&p| x0[p][0] > 0.98).collect();
-    let history: Vec<(f64, f64)> = snaps
-        .iter()
-        .map(|(_, f)| {
-            let (t, x) = positions(f);
-            let w = tip.iter().map(|&p| x[p][1] - x0[p][1]).sum::<f64>() / tip.len() as f64;
-            (t, -w)
-        })
-        .collect();
+    let (history, _) = tip_history(&tmpdir(&format!("tlmpm-cantilever-{name}")), text);
     // Euler–Bernoulli: static deflection P L³/(3EI), first period 2π/ω₁.
     let (p, l, e, h, rho): (f64, f64, f64, f64, f64) = (40.0, 1.0, 1e7, 0.1, 1000.0);
     let i = h * h * h / 12.0;
@@ -168,6 +147,99 @@ fn cantilever_matches_euler_bernoulli(name: &str, text: &str) {
         w_max > 1.8 * delta && w_max < 2.05 * delta,
         "overshoot {w_max}"
     );
+}
+
+/// Runs `scene` into `dir/out` and returns the tip deflection `(t, w)` of every snapshot
+/// (s, m; the mean downward displacement of the particles at X > 0.98 m) and `summary.json`.
+fn tip_history(dir: &Path, scene: &str) -> (Vec<(f64, f64)>, serde_json::Value) {
+    let path = write(dir, "scene.toml", scene);
+    let out = dir.join("out");
+    let o = cli(&[
+        "run",
+        &path.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let snaps = numbered_files(&out, "snap_");
+    let (_, x0) = positions(&snaps[0].1);
+    let tip: Vec<usize> = (0..x0.len()).filter(|&p| x0[p][0] > 0.98).collect();
+    let history = snaps
+        .iter()
+        .map(|(_, f)| {
+            let (t, x) = positions(f);
+            let w = tip.iter().map(|&p| x[p][1] - x0[p][1]).sum::<f64>() / tip.len() as f64;
+            (t, -w)
+        })
+        .collect();
+    let summary = std::fs::read_to_string(out.join("summary.json")).expect("summary");
+    (history, serde_json::from_str(&summary).expect("json"))
+}
+
+/// The first maximum of the tip deflection of [`tip_history`] over `t < 0.45 s` (m).
+fn first_peak_and_summary(dir: &Path, scene: &str) -> (f64, serde_json::Value) {
+    let (history, summary) = tip_history(dir, scene);
+    let peak = (history.iter().filter(|(t, _)| *t < 0.45))
+        .map(|(_, w)| *w)
+        .fold(f64::MIN, f64::max);
+    (peak, summary)
+}
+
+#[test]
+fn newmark_keeps_the_first_swing_and_summary_holds_newton_residual_histories() {
+    // The cantilever at ten times the explicit step for 240 steps: backward Euler damps the
+    // first swing, Newmark keeps it at the undamped ~1.94 δ (mode 1 carries 0.97 δ).
+    let scene = CANTILEVER.replace("end_time = 1.3", "end_time = 0.6");
+    let delta = 40.0 / (3.0 * 1e7 * 0.1f64.powi(3) / 12.0);
+    let (euler, _) = first_peak_and_summary(&tmpdir("tlmpm-newmark-be"), &scene);
+    let newmark_scene = scene.replace(
+        "[tlmpm]\ncontact = false",
+        "[tlmpm]\ncontact = false\ntime_scheme = \"newmark\"",
+    );
+    assert_ne!(newmark_scene, scene);
+    let (newmark, summary) = first_peak_and_summary(&tmpdir("tlmpm-newmark-nm"), &newmark_scene);
+    println!(
+        "first peak / static deflection: backward Euler {:.4}, Newmark {:.4}",
+        euler / delta,
+        newmark / delta
+    );
+    assert!(
+        newmark > euler,
+        "Newmark {newmark} vs backward Euler {euler}"
+    );
+    assert!((1.9..2.05).contains(&(newmark / delta)), "{newmark}");
+    // 241 steps (0.6 s in steps of 2.5 ms, rounded up): the first and the last 100 residual
+    // histories are kept, 41 omitted.
+    let h = &summary["solves"]["newton"]["residual_histories"];
+    assert_eq!(
+        summary["solver"],
+        "implicit TLMPM (Newmark average acceleration, Newton)"
+    );
+    let n = summary["steps"].as_u64().expect("steps");
+    assert_eq!(n, 241);
+    assert_eq!(h["omitted_steps"].as_u64(), Some(n - 200));
+    let steps = h["steps"].as_array().expect("steps");
+    let numbers: Vec<u64> = steps.iter().map(|s| s["step"].as_u64().unwrap()).collect();
+    assert_eq!(numbers.len(), 200);
+    assert_eq!((numbers[0], numbers[99]), (1, 100));
+    assert_eq!((numbers[100], numbers[199]), (n - 99, n));
+    // Each history starts at the initial residual and ends within Newton's tolerance
+    // (abs 1e-10 N + rel 1e-8, or the round-off floor), one entry per iteration.
+    let max_iterations = summary["solves"]["newton"]["iterations"]["max_per_step"]
+        .as_u64()
+        .unwrap();
+    for s in steps {
+        let r: Vec<f64> = s["residuals"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        assert!(r.len() >= 2 && r.len() as u64 <= max_iterations + 1, "{s}");
+        let last = *r.last().unwrap();
+        assert!(last < 1e-6 * r[0], "step {}: {r:?}", s["step"]);
+    }
 }
 
 #[test]

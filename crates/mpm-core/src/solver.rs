@@ -134,6 +134,10 @@ pub struct StepInfo {
     pub solves: Vec<SolveInfo>,
     /// Counts of events in the accepted attempt, e.g. `("contact_pairs", 12)`.
     pub events: Vec<(&'static str, u64)>,
+    /// Residual-norm histories of the accepted attempt's solves that keep one, by solve name:
+    /// the initial residual first, then one per iteration (each in its solve's own unit). Empty
+    /// for solvers that do not report them.
+    pub residual_histories: Vec<(&'static str, Vec<Real>)>,
 }
 
 /// Why one attempt at a step failed; `E` is the solver's own error for a failed solve.

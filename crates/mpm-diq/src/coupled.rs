@@ -1146,6 +1146,7 @@ where
             time: self.time,
             solves,
             events,
+            residual_histories: Vec::new(),
         })
     }
 

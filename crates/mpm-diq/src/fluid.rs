@@ -1109,6 +1109,7 @@ where
             time: self.time,
             solves,
             events,
+            residual_histories: Vec::new(),
         })
     }
 }

@@ -223,6 +223,7 @@ where
             time: self.time,
             solves: Vec::new(),
             events: Vec::new(),
+            residual_histories: Vec::new(),
         })
     }
 

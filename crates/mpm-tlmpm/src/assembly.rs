@@ -81,7 +81,7 @@ pub(crate) fn assemble<const D: usize>(
         }
         for b in 0..D {
             if constraints.is_free(j, b) {
-                column.add(0, b, b, masses[j] * pot.inv_dt2);
+                column.add(0, b, b, masses[j] * pot.inertia);
             } else {
                 column.set(0, b, b, 1.0);
             }

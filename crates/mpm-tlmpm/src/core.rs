@@ -148,7 +148,7 @@ pub(crate) fn state_from<const D: usize>(
 /// The [`Solver`] and [`TotalLagrangian`] implementations both TLMPM solvers share, for a
 /// solver type with a `core: Core<D>` field and the inherent methods `stage_plan`, `stable_dt`,
 /// `seam_step` (the step as a [`mpm_core::StepInfo`]), `seam_stage_times` and `rebuild` (the same
-/// set-up around other particles).
+/// set-up around other particles); `$name` maps the solver to its name.
 macro_rules! solver_seam {
     ($ty:ident, $name:expr, $bound:expr, $limits_fixed_dt:expr) => {
         impl<const D: usize> mpm_core::Solver<D> for $ty<D>
@@ -156,7 +156,7 @@ macro_rules! solver_seam {
             Dim<D>: DimOps<D>,
         {
             fn name(&self) -> &'static str {
-                $name
+                ($name)(self)
             }
 
             fn spec(&self) -> &GridSpec<D> {
@@ -245,10 +245,11 @@ macro_rules! solver_seam {
 }
 pub(crate) use solver_seam;
 
-/// The step result of either solver as a [`mpm_core::StepInfo`].
+/// The step result of either solver as a [`mpm_core::StepInfo`], from its solves and their
+/// residual histories.
 pub(crate) fn step_info(
     (dt, retries, time): (Real, u32, Real),
-    solves: Vec<SolveInfo>,
+    (solves, residual_histories): (Vec<SolveInfo>, Vec<(&'static str, Vec<Real>)>),
     contact: Option<ContactStats>,
     reference_updated: bool,
 ) -> StepInfo {
@@ -265,6 +266,7 @@ pub(crate) fn step_info(
         time,
         solves,
         events,
+        residual_histories,
     }
 }
 
@@ -367,8 +369,11 @@ pub(crate) struct Core<const D: usize> {
     pub particle_forces: Vec<Vector<D>>,
     /// The nodal loads and the tractions' surface particles of the parameters.
     pub loads: AppliedLoads,
-    /// Node displacements of the step, u = Δt v^{n+1} (m).
+    /// Node displacements of the step, u = x^{n+1} − x^n (m); `Δt v^{n+1}` except with Newmark.
     pub displacement: Vec<Vector<D>>,
+    /// End-of-step node velocities v^{n+1} (m/s) of a scheme where they are not `u/Δt`
+    /// (Newmark: `2u/Δt − v̂`); empty otherwise. Scratch of the current attempt, not state.
+    pub end_velocity: Vec<Vector<D>>,
     /// G2P results awaiting the guard checks.
     pub updates: Vec<Update<D>>,
     /// The contact stage, when contact is on.
@@ -429,6 +434,7 @@ where
             particle_forces: Vec::new(),
             loads,
             displacement: Vec::new(),
+            end_velocity: Vec::new(),
             updates: Vec::new(),
             contact,
             adaptive,
@@ -749,7 +755,10 @@ where
         };
         transfer::grid_to_particles(
             &self.reference,
-            &self.displacement,
+            (
+                &self.displacement,
+                (!self.end_velocity.is_empty()).then_some(&self.end_velocity[..]),
+            ),
             dt,
             (&self.particles.x, rel),
             flip,
@@ -815,8 +824,12 @@ where
     pub fn commit(&mut self, dt: Real) {
         if self.params.transfer == Transfer::Persistent {
             self.node_velocity.clear();
-            self.node_velocity
-                .extend(self.displacement.iter().map(|u| u / dt));
+            if self.end_velocity.is_empty() {
+                self.node_velocity
+                    .extend(self.displacement.iter().map(|u| u / dt));
+            } else {
+                self.node_velocity.extend_from_slice(&self.end_velocity);
+            }
         }
         let Particles {
             x,

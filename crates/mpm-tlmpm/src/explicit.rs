@@ -183,7 +183,7 @@ where
 
 crate::core::solver_seam!(
     ExplicitTlmpm,
-    "explicit TLMPM (symplectic Euler)",
+    |_: &Self| "explicit TLMPM (symplectic Euler)",
     "dx / max(|v| + c)",
     true
 );
@@ -207,7 +207,7 @@ where
         let info = self.step().map_err(|e| e.erase("Newton"))?;
         Ok(step_info(
             (info.dt, info.retries, info.time),
-            Vec::new(),
+            (Vec::new(), Vec::new()),
             info.contact,
             info.reference_updated,
         ))

@@ -1,5 +1,6 @@
-//! Total-Lagrangian MPM (TLMPM, diq-mpm §3): implicit (backward Euler, Newton) and explicit
-//! (symplectic Euler) solvers whose grid is the *reference* configuration.
+//! Total-Lagrangian MPM (TLMPM, diq-mpm §3): implicit (backward Euler or Newmark average
+//! acceleration, [`TimeScheme`]; Newton) and explicit (symplectic Euler) solvers whose grid is the
+//! *reference* configuration.
 //!
 //! All stresses, forces and time integration are computed on the initial grid, so particles
 //! never cross cells: the B-spline weights `W_i(X_p)` and reference gradients `∇^X W_i(X_p)` are
@@ -17,7 +18,8 @@
 //!
 //! `E(u) = Σ_i m_i/(2Δt²) ‖u_i − Δt v̂_i‖² + Σ_p V⁰_p ψ(F_p(u)) − Σ_i f^ext_i · u_i`
 //!
-//! (the brief's `E(x)` with `x_i = x_i^n + u_i`) has an exact, consistent Hessian built from
+//! (the brief's `E(x)` with `x_i = x_i^n + u_i`; Newmark changes only the inertia coefficient and
+//! the prediction, see the `implicit` module) has an exact, consistent Hessian built from
 //! mpm-core's `dP(F)[δF]`; Newton's method ([`NewtonParams`]) minimises it with a capped
 //! backtracking line search and either a sparse Cholesky or a Jacobi-preconditioned CG solve
 //! ([`LinearSolver`]), both from mpm-linalg.
@@ -75,6 +77,6 @@ pub use mpm_linalg::CholeskyError;
 pub use newton::{fitted_order, NewtonInfo};
 pub use params::{
     ContactParams, FixedRegion, ImplicitParams, LineSearch, LinearSolver, NewtonParams,
-    ReferenceUpdate, SpdProjection, TlmpmParams, Transfer,
+    ReferenceUpdate, SpdProjection, TimeScheme, TlmpmParams, Transfer,
 };
 pub use reference::ReferenceConfig;

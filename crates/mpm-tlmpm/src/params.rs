@@ -243,6 +243,41 @@ impl LinearSolver {
     pub const CG_REL_TOL: Real = 1e-6;
 }
 
+/// Time integrator of the implicit solver; both are solved by Newton's method on an incremental
+/// potential over the node displacements `u = x^{n+1} − x^n` (see the `implicit` module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TimeScheme {
+    /// Backward Euler, first order: `M (v^{n+1} − v^n) = Δt f(x^{n+1})`, `u = Δt v^{n+1}`.
+    /// Unconditionally stable, and it damps every mode with `ωΔt ≳ 1`.
+    #[default]
+    BackwardEuler,
+    /// Newmark average acceleration (β = 1/4, γ = 1/2), second order and without numerical
+    /// damping for linear problems: `u = Δt/2 (v^n + v^{n+1})`,
+    /// `M (v^{n+1} − v^n) = Δt/2 (f(x^n) + f(x^{n+1}))`, with `M a^n = f(x^n)` evaluated from
+    /// the start-of-step state instead of stored.
+    Newmark,
+}
+
+impl TimeScheme {
+    /// The name used in scene files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            TimeScheme::BackwardEuler => "backward_euler",
+            TimeScheme::Newmark => "newmark",
+        }
+    }
+
+    /// The coefficient `c/Δt²` (1/s²) of the incremental potential's inertia term
+    /// `Σ_i c m_i/(2Δt²) ‖u_i − û_i‖²`: c = 1 for backward Euler, 4 for Newmark.
+    pub fn inertia(self, dt: Real) -> Real {
+        match self {
+            TimeScheme::BackwardEuler => 1.0 / (dt * dt),
+            TimeScheme::Newmark => 4.0 / (dt * dt),
+        }
+    }
+}
+
 /// Parameters of the implicit solver only.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ImplicitParams {
@@ -250,4 +285,6 @@ pub struct ImplicitParams {
     pub newton: NewtonParams,
     /// Linear solver.
     pub linear: LinearSolver,
+    /// Time integrator (backward Euler by default).
+    pub scheme: TimeScheme,
 }

@@ -1,4 +1,6 @@
-//! The backward-Euler incremental potential of implicit TLMPM and its derivatives.
+//! The incremental potential of implicit TLMPM and its derivatives (written here for backward
+//! Euler; Newmark changes only the inertia coefficient and the prediction û, see the
+//! `implicit` module docs).
 //!
 //! Unknowns are the node displacements of the step, `u_i = x_i^{n+1} − x_i^n = Δt v_i^{n+1}` (m),
 //! on the active nodes of the reference grid. The deformation gradient is affine in them
@@ -43,8 +45,9 @@ pub(crate) struct Potential<'a, const D: usize> {
     pub target: &'a [Vector<D>],
     /// External nodal forces (N).
     pub external: &'a [Vector<D>],
-    /// 1/Δt² (1/s²).
-    pub inv_dt2: Real,
+    /// Inertia coefficient `c/Δt²` (1/s²) of the term `Σ_i c m_i/(2Δt²) ‖u_i − û_i‖²`: 1/Δt²
+    /// for backward Euler, 4/Δt² for Newmark ([`crate::TimeScheme::inertia`]).
+    pub inertia: Real,
 }
 
 /// The relative change of F whose stress [`Constitutive::stress_scales`] takes as the rounding
@@ -211,7 +214,7 @@ where
         let (mut inertia, mut work, mut work_abs) = (0.0, 0.0, 0.0);
         let masses = self.reference.node_masses();
         for i in 0..u.len() {
-            inertia += 0.5 * masses[i] * self.inv_dt2 * (u[i] - self.target[i]).norm_squared();
+            inertia += 0.5 * masses[i] * self.inertia * (u[i] - self.target[i]).norm_squared();
             let w = self.external[i].dot(&u[i]);
             work += w;
             work_abs += w.abs();
@@ -236,7 +239,7 @@ where
             .zip(magnitude.par_iter_mut())
             .enumerate()
             .for_each(|(i, (r, mag))| {
-                let scale = masses[i] * self.inv_dt2;
+                let scale = masses[i] * self.inertia;
                 let inertia = (u[i] - self.target[i]) * scale;
                 let (fint, fmag) = internal_force(self.reference, stress, i);
                 *r = (inertia - fint - self.external[i]).component_mul(&self.constraints.mask[i]);
@@ -315,7 +318,7 @@ where
         });
         let masses = self.reference.node_masses();
         y.par_iter_mut().enumerate().for_each(|(i, yi)| {
-            let mut acc = x[i] * (masses[i] * self.inv_dt2);
+            let mut acc = x[i] * (masses[i] * self.inertia);
             for &(p, k) in self.reference.incidence(i) {
                 acc += scratch[p as usize] * self.reference.slot(p as usize, k as usize).1;
             }
@@ -329,7 +332,7 @@ where
         let n2 = D * D;
         let masses = self.reference.node_masses();
         out.par_iter_mut().enumerate().for_each(|(i, di)| {
-            let mut d = Vector::<D>::from_element(masses[i] * self.inv_dt2);
+            let mut d = Vector::<D>::from_element(masses[i] * self.inertia);
             for &(p, k) in self.reference.incidence(i) {
                 let a = &tensors[p as usize * tensor_len(D)..];
                 let g = self.reference.slot(p as usize, k as usize).1;

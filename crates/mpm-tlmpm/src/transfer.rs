@@ -62,13 +62,14 @@ pub(crate) struct FlipBlend<'a, const D: usize> {
     pub v: &'a [Vector<D>],
 }
 
-/// G2P from node displacements `u_i = Δt v_i` (m): `x_p += Σ W_ip u_i`, `v_p = Σ W_ip u_i/Δt`,
-/// `F_p = F_p^n + Σ u_i ⊗ ∇^X W_ip` (the same sum as the Newton solve's `F(u)`) and
-/// `C_p = Σ u_i ⊗ ∇^X W_ip / Δt`. With `flip`, the velocity is the blend
-/// `α (v_p^n + Σ W_ip (u_i/Δt − v̂_i)) + (1 − α) Σ W_ip u_i/Δt` instead.
+/// G2P from node displacements `u_i` (m) and end-of-step node velocities `v_i` (m/s):
+/// `x_p += Σ W_ip u_i`, `v_p = Σ W_ip v_i`, `F_p = F_p^n + Σ u_i ⊗ ∇^X W_ip` (the same sum as
+/// the Newton solve's `F(u)`) and `C_p = Σ v_i ⊗ ∇^X W_ip`. The velocities are `v_i = u_i/Δt`
+/// (backward Euler, explicit) when `velocity` is `None`. With `flip`, the velocity is the blend
+/// `α (v_p^n + Σ W_ip (v_i − v̂_i)) + (1 − α) Σ W_ip v_i` instead.
 pub(crate) fn grid_to_particles<const D: usize>(
     reference: &ReferenceConfig<D>,
-    u: &[Vector<D>],
+    (u, velocity): (&[Vector<D>], Option<&[Vector<D>]>),
     dt: Real,
     (x, def_grad): (&[Vector<D>], &[Matrix<D>]),
     flip: Option<FlipBlend<'_, D>>,
@@ -84,6 +85,9 @@ pub(crate) fn grid_to_particles<const D: usize>(
             def_grad: Matrix::<D>::zeros(),
         },
     );
+    if let Some(v) = velocity {
+        return grid_to_particles_with(reference, (u, v), (x, def_grad), flip, out);
+    }
     let inv_dt = 1.0 / dt;
     out.par_iter_mut().enumerate().for_each(|(p, up)| {
         let (nodes, weights, grads) = reference.slots(p);
@@ -111,6 +115,46 @@ pub(crate) fn grid_to_particles<const D: usize>(
                 None => v_pic,
             },
             affine: grad_u * inv_dt,
+            def_grad: f,
+        };
+    });
+}
+
+/// [`grid_to_particles`] with given end-of-step node velocities `v` (m/s).
+fn grid_to_particles_with<const D: usize>(
+    reference: &ReferenceConfig<D>,
+    (u, v): (&[Vector<D>], &[Vector<D>]),
+    (x, def_grad): (&[Vector<D>], &[Matrix<D>]),
+    flip: Option<FlipBlend<'_, D>>,
+    out: &mut Vec<Update<D>>,
+) {
+    out.par_iter_mut().enumerate().for_each(|(p, up)| {
+        let (nodes, weights, grads) = reference.slots(p);
+        let (mut du, mut vp, mut dv) = (
+            Vector::<D>::zeros(),
+            Vector::<D>::zeros(),
+            Vector::<D>::zeros(),
+        );
+        let (mut grad_v, mut f) = (Matrix::<D>::zeros(), def_grad[p]);
+        for ((&i, &w), g) in nodes.iter().zip(weights).zip(grads) {
+            if i != NONE {
+                let (ui, vi) = (u[i as usize], v[i as usize]);
+                du += ui * w;
+                vp += vi * w;
+                if let Some(fb) = &flip {
+                    dv += (vi - fb.grid_velocity[i as usize]) * w;
+                }
+                grad_v += vi * g.transpose();
+                f += ui * g.transpose();
+            }
+        }
+        *up = Update {
+            x: x[p] + du,
+            v: match &flip {
+                Some(fb) => (fb.v[p] + dv) * fb.alpha + vp * (1.0 - fb.alpha),
+                None => vp,
+            },
+            affine: grad_v,
             def_grad: f,
         };
     });
@@ -215,7 +259,7 @@ mod tests {
             v: &s.v,
         });
         let mut out = Vec::new();
-        grid_to_particles(&s.reference, &s.u, s.dt, (&s.x, &f), flip, &mut out);
+        grid_to_particles(&s.reference, (&s.u, None), s.dt, (&s.x, &f), flip, &mut out);
         out
     }
 

@@ -31,6 +31,7 @@ fn tight() -> ImplicitParams {
             ..NewtonParams::default()
         },
         linear: LinearSolver::Cholesky,
+        ..ImplicitParams::default()
     }
 }
 

@@ -65,6 +65,7 @@ where
             ..NewtonParams::default()
         },
         linear: LinearSolver::Cholesky,
+        ..ImplicitParams::default()
     };
     let mut solver = soft_block::<D>(a, (1e3, 0.1), implicit);
     let info = solver.step().unwrap().newton;
@@ -121,6 +122,7 @@ fn cholesky_and_cg_give_the_same_step() {
         ImplicitParams {
             newton: tight,
             linear: LinearSolver::Cholesky,
+            ..ImplicitParams::default()
         },
     );
     let mut cg = soft_block::<2>(
@@ -132,6 +134,7 @@ fn cholesky_and_cg_give_the_same_step() {
                 max_iterations: 500,
                 rel_tol: 1e-10,
             },
+            ..ImplicitParams::default()
         },
     );
     for _ in 0..3 {
@@ -178,6 +181,7 @@ fn linear_momentum_is_conserved_without_gravity_or_boundaries() {
                 ..NewtonParams::default()
             },
             linear,
+            ..ImplicitParams::default()
         };
         let params = TlmpmParams {
             time_step: TimeStepPolicy::Fixed { dt: 0.02 },
@@ -305,6 +309,7 @@ fn guards_and_retries() {
                 ..NewtonParams::default()
             },
             linear: LinearSolver::Cholesky,
+            ..ImplicitParams::default()
         },
         materials.clone(),
         particles.clone(),
@@ -332,6 +337,7 @@ fn guards_and_retries() {
                 ..NewtonParams::default()
             },
             linear: LinearSolver::Cholesky,
+            ..ImplicitParams::default()
         },
         materials,
         particles,

@@ -8,7 +8,7 @@ use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{Dim, DimOps, Material, Particles, Real, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ExplicitTlmpm, FixedRegion, ImplicitParams, ImplicitTlmpm, LinearSolver, NewtonParams,
-    TlmpmParams, Transfer,
+    TimeScheme, TlmpmParams, Transfer,
 };
 use std::f64::consts::PI;
 
@@ -192,6 +192,7 @@ where
             ..NewtonParams::default()
         },
         linear: LinearSolver::Cholesky,
+        ..ImplicitParams::default()
     };
     let mut solver = ImplicitTlmpm::new(
         grid_around(bounds, dx, 3),
@@ -346,7 +347,7 @@ where
                 dt: if matches!(which, 0 | 4) { 5e-4 } else { 5e-3 },
             },
             transfer: match which {
-                3 => Transfer::Persistent,
+                3 | 7 => Transfer::Persistent,
                 4 | 5 => Transfer::Flip { blend: 0.97 },
                 _ => Transfer::Apic,
             },
@@ -356,6 +357,10 @@ where
         let implicit = match which {
             0 | 4 => None,
             1 | 3 | 5 => Some(ImplicitParams::default()),
+            6 | 7 => Some(ImplicitParams {
+                scheme: TimeScheme::Newmark,
+                ..ImplicitParams::default()
+            }),
             _ => Some(ImplicitParams {
                 linear: LinearSolver::Cg {
                     max_iterations: 200,
@@ -375,8 +380,9 @@ where
 #[test]
 fn results_are_bitwise_identical_for_1_and_4_threads() {
     // 0: explicit, 1: implicit Cholesky, 2: implicit CG, 3: implicit with persistent node
-    // velocities, 4 and 5: explicit and implicit with the FLIP blend.
-    for which in 0..6 {
+    // velocities, 4 and 5: explicit and implicit with the FLIP blend, 6 and 7: Newmark with APIC
+    // and with persistent node velocities.
+    for which in 0..8 {
         let (one, four) = (run_threads::<3>(1, which), run_threads::<3>(4, which));
         assert_eq!(one, four, "solver variant {which}");
         let (one, four) = (run_threads::<2>(1, which), run_threads::<2>(4, which));
@@ -413,6 +419,7 @@ fn loaded_column() -> (Real, Real) {
                     ..NewtonParams::default()
                 },
                 linear: LinearSolver::Cholesky,
+                ..ImplicitParams::default()
             },
             vec![uniaxial(e, rho)],
             block(bounds, h, rho, |_| Vector::<2>::zeros()),

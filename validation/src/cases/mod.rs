@@ -130,6 +130,10 @@ pub static REGISTRY: &[&dyn Case] = &[
         run: tlmpm::cantilever_tip_load::case,
     },
     &FnCase {
+        name: tlmpm::implicit_second_order::NAME,
+        run: tlmpm::implicit_second_order::case,
+    },
+    &FnCase {
         name: diq::hydrostatic_incompressible::NAME,
         run: diq::hydrostatic_incompressible::case,
     },

@@ -146,6 +146,7 @@ pub(super) fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
             },
             _ => LinearSolver::Cholesky,
         },
+        scheme: t.time_scheme.unwrap_or_default(),
     }
 }
 

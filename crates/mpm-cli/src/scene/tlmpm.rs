@@ -12,7 +12,7 @@ use super::{Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::boundary::ContactKind;
 use mpm_core::Columns;
-use mpm_tlmpm::{LinearSolver, NewtonParams, ReferenceUpdate, SpdProjection};
+use mpm_tlmpm::{LinearSolver, NewtonParams, ReferenceUpdate, SpdProjection, TimeScheme};
 use serde::{Deserialize, Serialize};
 
 /// Time integration of the TLMPM solver.
@@ -67,6 +67,7 @@ impl RawTlmpmTables {
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawTlmpm {
     integrator: Option<IntegratorKind>,
+    time_scheme: Option<TimeScheme>,
     linear_solver: Option<LinearSolverKind>,
     cg_max_iterations: Option<u32>,
     cg_rel_tol: Option<f64>,
@@ -130,6 +131,9 @@ struct RawTraction {
 pub struct TlmpmDef {
     /// Implicit (Newton) or explicit time integration.
     pub integrator: IntegratorKind,
+    /// Time scheme of the implicit integrator (solver "tlmpm" only); `None` is backward Euler.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_scheme: Option<TimeScheme>,
     /// Newton linear solver (implicit only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub linear_solver: Option<LinearSolverKind>,
@@ -364,6 +368,15 @@ pub(crate) fn resolve_solid_tables(
         }
         implicit
     };
+    let scheme_given = t.is_some_and(|t| t.time_scheme.is_some());
+    c.not_applicable(
+        "tlmpm.time_scheme",
+        scheme_given && solver != "tlmpm",
+        &format!("with solver \"{solver}\" (its coupling steps are backward Euler)"),
+    );
+    let time_scheme = (opt(scheme_given, "time_scheme", c) && solver == "tlmpm")
+        .then(|| t.and_then(|t| t.time_scheme))
+        .flatten();
     let linear_solver = opt(
         t.is_some_and(|t| t.linear_solver.is_some()),
         "linear_solver",
@@ -599,6 +612,7 @@ pub(crate) fn resolve_solid_tables(
     TlmpmScene {
         tlmpm: TlmpmDef {
             integrator,
+            time_scheme,
             linear_solver,
             cg_max_iterations,
             cg_rel_tol,

@@ -121,7 +121,7 @@ where
             def_grad: &self.def_grad,
             target: &self.target,
             external: &self.external,
-            inv_dt2: 1.0 / (self.dt * self.dt),
+            inertia: 1.0 / (self.dt * self.dt),
         }
     }
 

@@ -53,7 +53,7 @@ use super::{add_lattice, result, sweep_labelled, tl_particles, Tlmpm};
 use crate::cases::neo_hookean;
 use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::{GridSpec, Matrix, Real, TimeStepPolicy, Vector};
-use mpm_tlmpm::{FixedRegion, ImplicitParams, TlmpmParams};
+use mpm_tlmpm::{FixedRegion, ImplicitParams, TlmpmParams, Transfer};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::time::Duration;
@@ -248,10 +248,49 @@ pub fn fit_step_response(samples: &[(Real, Real)]) -> Option<StepFit> {
     })
 }
 
-/// One run with `cells` grid cells through the thickness; explicit when `factor` is `None`,
-/// else implicit at `factor ×` the explicit step. error = relative static-deflection error;
-/// extras as listed in the case description.
-pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
+/// [`fit_step_response`] on a whole deflection history, strided to at most [`FIT_SAMPLES`]
+/// samples.
+pub fn fit_history(samples: &[(Real, Real)]) -> Option<StepFit> {
+    let stride = samples.len().div_ceil(FIT_SAMPLES);
+    let strided: Vec<(Real, Real)> = samples.iter().copied().step_by(stride).collect();
+    fit_step_response(&strided)
+}
+
+/// The tip-deflection record of one cantilever run (see [`history`]).
+#[derive(Clone, Debug)]
+pub struct History {
+    /// `(t, w)` after every step, `(0, 0)` first (s, m).
+    pub samples: Vec<(Real, Real)>,
+    /// Grid spacing Δx (m).
+    pub dx: Real,
+    /// The explicit step `dt_e` (s).
+    pub dt_explicit: Real,
+    /// The run's step (s).
+    pub dt: Real,
+    /// Steps taken.
+    pub steps: u64,
+    /// Particles.
+    pub particles: usize,
+    /// Euler–Bernoulli static deflection at the load's position (m).
+    pub delta: Real,
+    /// Wall time inside `step` (s).
+    pub wall: Duration,
+    /// Newton iterations over all steps (0 explicit).
+    pub newton: u64,
+    /// `"explicit"` or `"implicit"`.
+    pub label: &'static str,
+}
+
+/// Simulates the cantilever with `cells` grid cells through the thickness for `periods`
+/// Euler–Bernoulli periods with the `transfer`: explicit when `implicit` is `None`, else implicit
+/// with those parameters, at `factor ×` the explicit step `dt_e`.
+pub fn history(
+    cells: usize,
+    factor: Real,
+    implicit: Option<ImplicitParams>,
+    transfer: Transfer,
+    periods: Real,
+) -> Result<History, String> {
     let dx = THICKNESS / cells as Real;
     let mut particles = tl_particles::<2>();
     add_lattice(
@@ -273,6 +312,7 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
     );
     let far = 10.0;
     let params = |dt: Real| TlmpmParams {
+        transfer,
         time_step: TimeStepPolicy::Fixed { dt },
         fixed: vec![FixedRegion::clamp(
             Vector::<2>::new(-far, -far),
@@ -289,15 +329,9 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         particles.clone(),
     )?;
     let dt_explicit = EXPLICIT_CFL * probe.stable_dt();
-    let dt = dt_explicit * factor.unwrap_or(1.0);
-    let steps = (PERIODS * period() / dt - 1e-9).ceil() as u64;
-    let mut s = Tlmpm::new(
-        spec,
-        params(dt),
-        factor.map(|_| ImplicitParams::default()),
-        materials,
-        particles,
-    )?;
+    let dt = dt_explicit * factor;
+    let steps = (periods * period() / dt - 1e-9).ceil() as u64;
+    let mut s = Tlmpm::new(spec, params(dt), implicit, materials, particles)?;
     let load = Vector::<2>::new(0.0, -tip_load() / tip.len() as Real);
     let forces = s.particle_forces_mut();
     for &p in &tip {
@@ -323,10 +357,33 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
     if samples.iter().any(|w| !w.1.is_finite()) {
         return Err("non-finite tip deflection".into());
     }
-    let stride = samples.len().div_ceil(FIT_SAMPLES);
-    let strided: Vec<(Real, Real)> = samples.iter().copied().step_by(stride).collect();
-    let fit = fit_step_response(&strided).ok_or("no step response to fit")?;
-    let delta = static_deflection(a);
+    Ok(History {
+        samples,
+        dx,
+        dt_explicit,
+        dt,
+        steps,
+        particles: np,
+        delta: static_deflection(a),
+        wall,
+        newton,
+        label: s.label(),
+    })
+}
+
+/// One run with `cells` grid cells through the thickness; explicit when `factor` is `None`,
+/// else implicit at `factor ×` the explicit step. error = relative static-deflection error;
+/// extras as listed in the case description.
+pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
+    let h = history(
+        cells,
+        factor.unwrap_or(1.0),
+        factor.map(|_| ImplicitParams::default()),
+        Transfer::Apic,
+        PERIODS,
+    )?;
+    let (samples, dt, delta, label) = (&h.samples, h.dt, h.delta, h.label);
+    let fit = fit_history(samples).ok_or("no step response to fit")?;
     let static_ratio = fit.level / delta;
     let period_ratio = fit.period() / period();
     let peak = samples
@@ -336,7 +393,7 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         / delta;
     let mut extra = BTreeMap::new();
     extra.insert("dt_factor".into(), factor.unwrap_or(0.0));
-    extra.insert("dt_explicit".into(), dt_explicit);
+    extra.insert("dt_explicit".into(), h.dt_explicit);
     extra.insert("static_ratio".into(), static_ratio);
     extra.insert("period_ratio".into(), period_ratio);
     extra.insert("period_error".into(), (period_ratio - 1.0).abs());
@@ -348,26 +405,25 @@ pub fn run(cells: usize, factor: Option<Real>) -> Result<Run, String> {
         let (decay_be, period_be) = backward_euler_mode(omega1(), dt);
         extra.insert("decay_be".into(), decay_be);
         extra.insert("period_ratio_be".into(), period_be);
-        extra.insert("newton_per_step".into(), newton as Real / steps as Real);
+        extra.insert("newton_per_step".into(), h.newton as Real / h.steps as Real);
     }
     progress(
         NAME,
         &format!(
-            "{} h/dx = {cells}, dt = {dt:.3e} s: static {static_ratio:.4}, period \
+            "{label} h/dx = {cells}, dt = {dt:.3e} s: static {static_ratio:.4}, period \
              {period_ratio:.4}, amplitude {:.3}, decay/period {:.3}, peak {peak:.3}, fit rms \
              {:.2e}",
-            s.label(),
             fit.amplitude / fit.level,
             fit.decay_per_period(),
             fit.rms / delta
         ),
     );
     Ok(Run {
-        dx,
+        dx: h.dx,
         dt,
-        particles: np,
-        steps,
-        wall_s: wall.as_secs_f64(),
+        particles: h.particles,
+        steps: h.steps,
+        wall_s: h.wall.as_secs_f64(),
         error: (static_ratio - 1.0).abs(),
         extra,
     })

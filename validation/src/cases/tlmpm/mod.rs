@@ -4,7 +4,8 @@
 //! ([`two_disks_energy`]), a block hanging under extreme gravity
 //! ([`hanging_block_extreme`]), the 1D manufactured solution of the TLMPM literature
 //! ([`mms_1d_tlmpm`]), the work–precision cantilever of implicit against explicit
-//! ([`cantilever_tip_load`]).
+//! ([`cantilever_tip_load`]) and backward Euler against Newmark on it
+//! ([`implicit_second_order`]).
 //!
 //! Run records follow the crate's conventions; `wall_s` is the time spent inside the solvers'
 //! `step` (set-up and error sampling excluded). Units are SI; in 2D volumes are areas (m²) and
@@ -12,6 +13,7 @@
 
 pub mod cantilever_tip_load;
 pub mod hanging_block_extreme;
+pub mod implicit_second_order;
 pub mod mms_1d_tlmpm;
 pub mod newton_convergence;
 pub mod two_disks_contact;

@@ -97,6 +97,7 @@ where
             ..NewtonParams::default()
         },
         linear: LinearSolver::Cholesky,
+        ..ImplicitParams::default()
     };
     let n = particles.len();
     let mut solver = ImplicitTlmpm::new(
