@@ -119,12 +119,11 @@ pub fn case(mode: Mode) -> CaseResult {
     verdict(runs, failures, rates)
 }
 
+/// A variant's label, fitted rate and `(Δx, error)` points.
+type VariantRate = (&'static str, Option<Real>, Vec<(Real, Real)>);
+
 /// Assembles the result from the runs and each variant's fitted rate.
-fn verdict(
-    runs: Vec<Run>,
-    failures: Vec<String>,
-    rates: Vec<(&'static str, Option<Real>, Vec<(Real, Real)>)>,
-) -> CaseResult {
+fn verdict(runs: Vec<Run>, failures: Vec<String>, rates: Vec<VariantRate>) -> CaseResult {
     let description = format!(
         "The 2D manufactured solution of mms_axis_aligned_2d (u_i = A sin(2πX_i) sin(cπt), \
          Neo-Hookean E = 1e7 Pa, ν = 0.3, slip faces), error = max over one period of the RMS \
