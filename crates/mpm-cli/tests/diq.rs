@@ -203,6 +203,21 @@ fn solid_tables_are_checked_in_diq_scenes() {
             "`diq.interface_radius`: must lie in (0, 2]",
         ),
         (
+            DIQ_COUPLED_2D.replace("[output]", "[diq]\ncoupling_passes = 0\n\n[output]"),
+            "`diq.coupling_passes`: must be at least 1",
+        ),
+        (
+            DIQ_COUPLED_2D.replace(
+                "[output]",
+                "[diq]\ncoupling_strain_tolerance = -1e-5\n\n[output]",
+            ),
+            "`diq.coupling_strain_tolerance`: must be a positive number",
+        ),
+        (
+            DIQ_2D.replace("[output]", "[diq]\ncoupling_passes = 3\n\n[output]"),
+            "`diq.coupling_passes`: does not apply without a solid material",
+        ),
+        (
             DIQ_COUPLED_2D.replace(
                 "name = \"block\"\nmodel = \"neo_hookean\"\nE = 1e5\nnu = 0.3\ndensity = 500.0",
                 "name = \"block\"\npreset = \"snow\"",

@@ -928,14 +928,42 @@ where
         system: &mut PressureSystem<D>,
         stage: Stage,
     ) -> Result<(Vec<Real>, PressureInfo), Failure<PressureError>> {
-        let fail = |e| Failure::Solve(stage, e);
+        self.assemble_onto(rows, inv_mass, dt, system, stage)?;
+        self.project_assembled(rows, inv_mass, dt, v, system, stage)
+    }
+
+    /// Assembles `Δt J M⁻¹ Jᵀ + C` of `rows` and `inv_mass` (1/kg) into `system` and sets up
+    /// its preconditioner, for any number of [`Self::project_assembled`] solves.
+    pub(crate) fn assemble_onto(
+        &self,
+        rows: &Constraints<D>,
+        inv_mass: &[Real],
+        dt: Real,
+        system: &mut PressureSystem<D>,
+        stage: Stage,
+    ) -> Result<(), Failure<PressureError>> {
         let params = &self.params.pressure;
         system
             .assemble(rows, inv_mass, dt, params, &self.solid_cell())
-            .map_err(fail)?;
+            .map_err(|e| Failure::Solve(stage, e))
+    }
+
+    /// Projects the velocities `v` (m/s) with the system [`Self::assemble_onto`] left in
+    /// `system`: solves for the pressures and applies `v ← v − Δt M⁻¹ Jᵀ λ`.
+    pub(crate) fn project_assembled(
+        &self,
+        rows: &Constraints<D>,
+        inv_mass: &[Real],
+        dt: Real,
+        v: &mut [Vector<D>],
+        system: &mut PressureSystem<D>,
+        stage: Stage,
+    ) -> Result<(Vec<Real>, PressureInfo), Failure<PressureError>> {
         let rhs = rows.residual(v);
         let mut lambda = Vec::new();
-        let info = system.solve(&rhs, &mut lambda, params).map_err(fail)?;
+        let info = system
+            .solve(&rhs, &mut lambda, &self.params.pressure)
+            .map_err(|e| Failure::Solve(stage, e))?;
         rows.apply_transpose(&lambda, inv_mass, dt, v);
         Ok((lambda, info))
     }

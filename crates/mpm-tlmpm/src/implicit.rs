@@ -329,6 +329,32 @@ where
         Ok(predict(core, ws, stats, times, &self.implicit, dt)?.1)
     }
 
+    /// Coupling stage 1b: adds `delta` (N, one per active node) to the external node forces of
+    /// the current attempt of `dt` (s) and solves the elastic step again, starting Newton from
+    /// the last solution, so that [`Self::node_velocities`] become the elastic response to the
+    /// forces a coupling projection applies (the partitioned iteration of DIQ-MPM's coupled
+    /// step). Call after [`Self::elastic_predictor`] of the same attempt.
+    pub fn resolve_with_node_forces(
+        &mut self,
+        dt: Real,
+        delta: &[Vector<D>],
+    ) -> Result<(), mpm_core::Failure<crate::NewtonError>> {
+        for (f, d) in self.core.external.iter_mut().zip(delta) {
+            *f += d;
+        }
+        let warm = self.core.displacement.clone();
+        let (core, ws, times, implicit) = (
+            &mut self.core,
+            &mut self.ws,
+            &mut self.newton_times,
+            &self.implicit,
+        );
+        self.stats.time(Stage::Solve, || {
+            solve_grid(core, ws, times, implicit, dt, Some(&warm))
+        })?;
+        Ok(())
+    }
+
     /// The node velocities of the current attempt (m/s), `u_i/Δt` per active node, after
     /// [`Self::elastic_predictor`] or [`Self::set_node_velocities`].
     pub fn node_velocities(&self, dt: Real) -> Vec<Vector<D>> {
@@ -546,17 +572,21 @@ where
     stats.time(Stage::P2G, || core.momentum_to_grid());
     stats.time(Stage::ExternalForces, || core.external_forces());
     let contact = stats.time(Stage::Contact, || core.contact(dt));
-    let newton = stats.time(Stage::Solve, || solve_grid(core, ws, times, implicit, dt))?;
+    let newton = stats.time(Stage::Solve, || {
+        solve_grid(core, ws, times, implicit, dt, None)
+    })?;
     Ok((newton, contact))
 }
 
-/// Stage: Newton on the incremental potential of the time scheme for the node displacements.
+/// Stage: Newton on the incremental potential of the time scheme for the node displacements,
+/// from the scheme's predictor or, when given, from the displacements `warm` (m).
 fn solve_grid<const D: usize>(
     core: &mut Core<D>,
     ws: &mut Workspace<D>,
     times: &mut NewtonTimes,
     implicit: &ImplicitParams,
     dt: Real,
+    warm: Option<&[Vector<D>]>,
 ) -> Result<NewtonInfo, Failure>
 where
     Dim<D>: DimOps<D>,
@@ -568,6 +598,9 @@ where
         implicit.scheme,
         dt,
     );
+    if let Some(w) = warm {
+        core.displacement.copy_from_slice(w);
+    }
     let Core {
         reference,
         constraints,

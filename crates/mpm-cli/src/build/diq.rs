@@ -9,7 +9,7 @@ use super::{
 use crate::error::SceneError;
 use crate::scene::{DiqScene, LoadedScene, ModelDef};
 use mpm_core::{Dim, DimOps, Kernel, Solver};
-use mpm_diq::{DiqCoupled, DiqFluid, DiqParams, SolidParams};
+use mpm_diq::{CouplingIteration, DiqCoupled, DiqFluid, DiqParams, SolidParams};
 use mpm_tlmpm::TlmpmParams;
 
 /// The scene keys of the DIQ solver's parameter names (`SetupError::InvalidParameter`).
@@ -80,6 +80,10 @@ where
                     ..super::tlmpm::params::<D>(scene, solids, &spec)
                 },
                 implicit: super::tlmpm::implicit_params(&solids.tlmpm),
+                coupling: CouplingIteration {
+                    max_passes: own.diq.coupling_passes,
+                    strain_tolerance: own.diq.coupling_strain_tolerance,
+                },
             };
             let boundaries = boundaries::<D>(scene);
             Box::new(

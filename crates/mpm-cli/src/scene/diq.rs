@@ -14,7 +14,7 @@ use super::{Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::boundary::ContactKind;
 use mpm_core::{Columns, Kernel};
-use mpm_diq::{GradientQuadrature, PressureMethod, PressureParams};
+use mpm_diq::{CouplingIteration, GradientQuadrature, PressureMethod, PressureParams};
 use serde::{Deserialize, Serialize};
 
 /// The DIQ solver's tables as written.
@@ -36,6 +36,8 @@ struct RawDiq {
     position_correction: Option<bool>,
     gradient_quadrature: Option<GradientQuadrature>,
     interface_radius: Option<f64>,
+    coupling_passes: Option<usize>,
+    coupling_strain_tolerance: Option<f64>,
 }
 
 /// `[diq]`: the DIQ fluid solver's settings, every default filled in.
@@ -56,6 +58,13 @@ pub struct DiqDef {
     /// this close), as a fraction of Δx (dimensionless; diq-mpm §4.6: 0.5). Read only when the
     /// scene has solids.
     pub interface_radius: f64,
+    /// Most coupled projections per step of the partitioned iteration between the solids'
+    /// elastic solve and the projection (1: the paper's one-pass split). Read only when the
+    /// scene has solids.
+    pub coupling_passes: usize,
+    /// Strain mismatch (dimensionless, velocity × dt/dx) at which that iteration stops. Read only
+    /// when the scene has solids.
+    pub coupling_strain_tolerance: f64,
 }
 
 impl DiqDef {
@@ -149,12 +158,21 @@ fn resolve_diq(c: &mut Checker<'_>, raw: RawDiqTables, common: Common<'_>) -> Di
     }
     let t = raw.diq.as_ref();
     let interface_radius = t.and_then(|t| t.interface_radius);
+    let passes = t.and_then(|t| t.coupling_passes);
+    let strain_tolerance = t.and_then(|t| t.coupling_strain_tolerance);
     if !has_solid {
-        c.not_applicable(
-            "diq.interface_radius",
-            interface_radius.is_some(),
-            "without a solid material",
-        );
+        for (key, present) in [
+            ("diq.interface_radius", interface_radius.is_some()),
+            ("diq.coupling_passes", passes.is_some()),
+            ("diq.coupling_strain_tolerance", strain_tolerance.is_some()),
+        ] {
+            c.not_applicable(key, present, "without a solid material");
+        }
+    }
+    let coupling = CouplingIteration::default();
+    let coupling_passes = passes.unwrap_or(coupling.max_passes);
+    if coupling_passes == 0 {
+        c.err("diq.coupling_passes", "must be at least 1");
     }
     let max_iterations = t.and_then(|t| t.max_iterations).unwrap_or(d.max_iterations);
     if max_iterations == 0 {
@@ -177,6 +195,13 @@ fn resolve_diq(c: &mut Checker<'_>, raw: RawDiqTables, common: Common<'_>) -> Di
                 interface_radius.unwrap_or(0.5),
                 |x| x > 0.0 && x <= 2.0,
                 "must lie in (0, 2] (a fraction of dx)",
+            ),
+            coupling_passes,
+            coupling_strain_tolerance: c.num(
+                "diq.coupling_strain_tolerance",
+                strain_tolerance.unwrap_or(coupling.strain_tolerance),
+                |x| x > 0.0 && x.is_finite(),
+                "must be a positive number",
             ),
         },
         solids,
