@@ -7,7 +7,9 @@
 //! ([`cases::disk`]), a weakly compressible water column at rest
 //! ([`cases::hydrostatic`]), the DIQ-MPM incompressible fluid ([`cases::diq`]: a column at
 //! rest, divergence, Taylor–Green, volume conservation, a side-by-side with the weakly
-//! compressible solver, and its stability sweeps) and six multi-grid cases ([`cases::multigrid`]: maximal drag against
+//! compressible solver, and its stability sweeps), the DIQ-MPM coupling to solids
+//! ([`cases::diq_coupled`]: momentum, no leakage, the stiff limit, and the coupling's stability
+//! sweeps over E, ν, ρs/ρf and the step, run with `coupled_momentum`) and six multi-grid cases ([`cases::multigrid`]: maximal drag against
 //! the single grid, momentum conservation of the couplings, frictionless sliding along a wall,
 //! immiscible separation, concentration diffusion, a floating block). Stability sweeps over
 //! stiffness and CFL factor live in [`stability`]. Units are SI throughout.
@@ -235,6 +237,9 @@ pub fn run_validation(opts: &Options) -> Report {
     }
     if names.contains(&cases::diq::hydrostatic_incompressible::NAME) {
         stability.extend(cases::diq::stability::sweep(opts.mode));
+    }
+    if names.contains(&cases::diq_coupled::coupled_momentum::NAME) {
+        stability.extend(cases::diq_coupled::stability::sweep(opts.mode));
     }
     Report {
         machine: Machine::current(),

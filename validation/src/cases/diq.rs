@@ -665,16 +665,29 @@ pub mod stability {
 
     /// Classifies a run: `stopped` on a step error, `blew_up` on a non-finite or growing total
     /// energy (it can only fall: gravity's work is in the potential energy), else `stable`.
-    fn classify<const D: usize>(f: &mut dyn Solver<D>, t_end: Real) -> (Outcome, String)
+    /// The detail reports the coupled solver's partitioned iteration (`coupling_passes`) when
+    /// the solver has one: mean and largest passes per step and the largest strain mismatch
+    /// left.
+    pub(crate) fn classify<const D: usize>(f: &mut dyn Solver<D>, t_end: Real) -> (Outcome, String)
     where
         mpm_core::Dim<D>: mpm_core::DimOps<D>,
     {
         let e0 = f.diagnostics().total_energy();
         let scale = e0.abs().max(f.diagnostics().potential_energy.abs());
         let mut e_max = e0;
+        // (steps, passes, most passes, largest mismatch) of the coupling iteration.
+        let mut passes = (0u64, 0u64, 0u32, 0.0 as Real);
         while f.time() < t_end && f.steps() < 20_000 {
-            if let Err(e) = f.step() {
-                return (Outcome::Stopped, e.to_string());
+            match f.step() {
+                Err(e) => return (Outcome::Stopped, e.to_string()),
+                Ok(info) => {
+                    for s in info.solves.iter().filter(|s| s.name == "coupling_passes") {
+                        passes.0 += 1;
+                        passes.1 += u64::from(s.iterations);
+                        passes.2 = passes.2.max(s.iterations);
+                        passes.3 = passes.3.max(s.residual);
+                    }
+                }
             }
             let e = f.diagnostics().total_energy();
             if !e.is_finite() {
@@ -686,11 +699,20 @@ pub mod stability {
             e_max = e_max.max(e);
         }
         let growth = (e_max - e0) / scale;
-        let detail = format!(
+        let mut detail = format!(
             "{} steps, t = {:.3} s, max (E − E0)/|E0| = {growth:.3e}",
             f.steps(),
             f.time()
         );
+        if passes.0 > 0 {
+            detail.push_str(&format!(
+                "; coupling passes per step mean {:.2}, max {}, largest strain mismatch left \
+                 {:.1e}",
+                passes.1 as Real / passes.0 as Real,
+                passes.2,
+                passes.3
+            ));
+        }
         if growth > 0.01 {
             (Outcome::BlewUp, detail)
         } else {
@@ -717,13 +739,23 @@ pub mod stability {
     }
 
     fn rec(parameter: &str, value: Real, r: Result<(Outcome, String), String>) -> StabilityRecord {
+        record(CASE, parameter, value, r)
+    }
+
+    /// The stability record of one run of case `case`, with its progress line.
+    pub(crate) fn record(
+        case: &str,
+        parameter: &str,
+        value: Real,
+        r: Result<(Outcome, String), String>,
+    ) -> StabilityRecord {
         let (outcome, detail) = r.unwrap_or_else(|e| (Outcome::Stopped, format!("set-up: {e}")));
         progress(
-            CASE,
+            case,
             &format!("{parameter} = {value}: {} ({detail})", outcome.as_str()),
         );
         StabilityRecord {
-            case: CASE.into(),
+            case: case.into(),
             parameter: parameter.into(),
             value,
             outcome,

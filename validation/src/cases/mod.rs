@@ -161,6 +161,10 @@ pub static REGISTRY: &[&dyn Case] = &[
         name: diq_coupled::no_leakage::NAME,
         run: diq_coupled::no_leakage::case,
     },
+    &FnCase {
+        name: diq_coupled::stiff_limit::NAME,
+        run: diq_coupled::stiff_limit::case,
+    },
 ];
 
 /// The names of all cases, in the order they run.
