@@ -67,10 +67,11 @@ const DT_MAX: Real = 5e-3;
 
 /// The coupled solver on the unit square at `n` cells per metre (one node layer outside it),
 /// water as material 0 and the solid `solid_material` (integrated with `solid`) as material 1,
-/// with adaptive steps of at most `dt_max` (s).
+/// gravity `gravity` (m/s²), free-slip walls when `walls`, and adaptive steps of at most
+/// `dt_max` (s).
 fn coupled(
     (n, dt_max): (usize, Real),
-    (gravity, walls): (bool, bool),
+    (gravity, walls): (Vector<2>, bool),
     solid: SolidParams<2>,
     solid_material: Material,
     ps: Particles<2>,
@@ -81,7 +82,7 @@ fn coupled(
         ..DiqParams::default()
     };
     params.pressure.rel_tol = 1e-10;
-    params.gravity = Vector::<2>::new(0.0, if gravity { -G } else { 0.0 });
+    params.gravity = gravity;
     let boundaries = if walls {
         Boundaries::slip_walls(1)
     } else {
@@ -142,7 +143,7 @@ pub mod coupled_momentum {
         fill(&mut ps, ([0.25, 0.375], [0.5, 0.625]), dx, (1, 800.0), v0);
         let mut s = coupled(
             (n, DT_MAX),
-            (false, false),
+            (Vector::<2>::zeros(), false),
             SolidParams::default(),
             solid(800.0, 1e5),
             ps,
@@ -231,7 +232,7 @@ pub mod no_leakage {
         };
         let mut s = coupled(
             (n, DT_MAX),
-            (true, true),
+            (Vector::<2>::new(0.0, -G), true),
             solid_params,
             solid(1000.0, 1e7),
             ps,
@@ -298,6 +299,179 @@ pub mod no_leakage {
              (IQ-MPM's position clamping) keeps the particles out.",
             if ok { "holds" } else { "does not hold" }
         );
+        result(NAME, SOLVER, description, runs, failures, None, (ok, note))
+    }
+}
+
+/// `free_slip_wall`: a water film sliding down a fixed elastic wall keeps the free-slide
+/// velocity; the explicit solver's single grid and its multi-grid contact coupling beside it,
+/// error and wall time of each at every resolution (the work–precision comparison of the two
+/// coupling families on the wall scene).
+pub mod free_slip_wall {
+    use super::*;
+    use crate::cases::multigrid::wall_slide::{self, SlideConfig, Variant, WALL_FACE};
+
+    /// Case name.
+    pub const NAME: &str = "free_slip_wall";
+    /// Acceptance bound on `|ratio − 1|` of the DIQ film at every resolution.
+    pub const MAX_SLIP_ERROR: Real = 0.02;
+
+    /// The DIQ set-up of [`wall_slide`]'s scene at `n` cells per metre: the elastic wall
+    /// `[0.2, WALL_FACE] × [0.1, 0.9]` m (Neo-Hookean E = 1e6 Pa, ν = 0.3, 1000 kg/m²) clamped at
+    /// the reference nodes with X < WALL_FACE − 3Δx, and the incompressible water film
+    /// against its face; gravity tilted towards the wall. No domain walls.
+    fn build(cfg: &SlideConfig, n: usize) -> Result<DiqCoupled<2>, String> {
+        let dx = 1.0 / n as Real;
+        let mut ps = particles();
+        let zero = Vector::<2>::zeros();
+        let film = ([WALL_FACE, cfg.span.0], [WALL_FACE + cfg.film, cfg.span.1]);
+        fill(&mut ps, film, dx, (0, RHO_F), zero);
+        fill(
+            &mut ps,
+            ([0.2, 0.1], [WALL_FACE, 0.9]),
+            dx,
+            (1, 1000.0),
+            zero,
+        );
+        let clamp = FixedRegion::clamp(
+            Vector::<2>::new(0.0, 0.0),
+            Vector::<2>::new(WALL_FACE - 3.0 * dx, 1.0),
+        );
+        let solid = SolidParams {
+            tlmpm: TlmpmParams {
+                fixed: vec![clamp],
+                ..TlmpmParams::default()
+            },
+            ..SolidParams::default()
+        };
+        let (g_n, g_t) = cfg.components();
+        let gravity = Vector::<2>::new(-g_n, -g_t);
+        coupled(
+            (n, DT_MAX),
+            (gravity, false),
+            solid,
+            solid_nu(1000.0, 1e6, 0.3),
+            ps,
+        )
+    }
+
+    /// One resolution: the DIQ film's mean downward velocity over the free-slide value
+    /// `g cos θ · t` (`error = |ratio − 1|`), with the explicit single grid and frictionless
+    /// multi-grid contact of [`wall_slide`] at the same resolution in `extra`.
+    pub fn run(n: usize) -> Result<Run, String> {
+        let cfg = SlideConfig::default();
+        let mut s = build(&cfg, n)?;
+        let (mut wall, mut fewest) = (Duration::ZERO, u64::MAX);
+        while s.time() < cfg.duration - 1e-12 {
+            let info = step(&mut s, &mut wall).map_err(|e| e.to_string())?;
+            let iq = info.events.iter().find(|(k, _)| *k == "interface_points");
+            if s.time() > 0.5 * cfg.duration {
+                fewest = fewest.min(iq.map_or(0, |&(_, n)| n));
+            }
+        }
+        let p = s.particles();
+        let film = s.fluid_indices();
+        // The film must stay on the wall for the slide to test the interface.
+        let gap = film
+            .iter()
+            .map(|&f| p.x[f][0])
+            .fold(Real::INFINITY, Real::min)
+            - WALL_FACE;
+        let m: Real = film.iter().map(|&f| p.mass[f]).sum();
+        let v_t = -film.iter().map(|&f| p.mass[f] * p.v[f][1]).sum::<Real>() / m;
+        let (_, g_t) = cfg.components();
+        let ratio = v_t / (g_t * s.time());
+        let mut extra = BTreeMap::new();
+        extra.insert("ratio_diq".into(), ratio);
+        extra.insert("free_slide_velocity_m_s".into(), g_t * s.time());
+        // Fewest interface points in a step of the run's second half.
+        extra.insert("fewest_interface_points".into(), fewest as Real);
+        extra.insert("film_gap_at_end_m".into(), gap);
+        for (key, variant) in [
+            ("single", Variant::SingleGrid),
+            ("contact", Variant::Contact(0.0)),
+        ] {
+            match wall_slide::slide(&cfg, n, variant) {
+                Ok((r, w, ..)) => {
+                    extra.insert(format!("ratio_explicit_{key}"), r);
+                    extra.insert(format!("wall_explicit_{key}_s"), w.as_secs_f64());
+                }
+                Err(e) => return Err(format!("explicit {key}: {e}")),
+            }
+        }
+        Ok(record(
+            1.0 / n as Real,
+            &s,
+            wall,
+            (ratio - 1.0).abs(),
+            extra,
+        ))
+    }
+
+    /// The case.
+    pub fn case(mode: Mode) -> CaseResult {
+        let cfg = SlideConfig::default();
+        let ns: &[usize] = match mode {
+            Mode::Quick => &[32, 48, 64],
+            Mode::Full => &[32, 64, 128],
+        };
+        let (runs, failures) = sweep(NAME, ns, run);
+        let get = |r: &Run, k: &str| r.extra.get(k).copied().unwrap_or(Real::NAN);
+        let slips = runs.iter().all(|r| r.error < MAX_SLIP_ERROR);
+        let sticks = runs
+            .iter()
+            .all(|r| get(r, "ratio_explicit_single") < wall_slide::MAX_SINGLE_RATIO);
+        let touches = runs.iter().all(|r| {
+            get(r, "fewest_interface_points") > 0.0 && get(r, "film_gap_at_end_m") < 0.5 * r.dx
+        });
+        let ok = runs.len() == ns.len() && slips && sticks && touches;
+        let (g_n, g_t) = cfg.components();
+        let description = format!(
+            "The scene of {} with DIQ-MPM: an elastic wall (Neo-Hookean E = 1e6 Pa, ν = 0.3, \
+             1000 kg/m², [0.2, {WALL_FACE}] × [0.1, 0.9] m) clamped at its reference nodes with \
+             X < {WALL_FACE} − 3Δx, and a film of incompressible, inviscid water ([{WALL_FACE}, \
+             {}] × [{}, {}] m, 1000 kg/m²) at rest against its face; no domain walls; gravity \
+             {:.3} m/s² towards the wall and {:.3} m/s² along it; 2×2 particles per cell, \
+             {} s. error = |ratio_diq − 1|, ratio_diq the film's mass-weighted mean downward \
+             velocity over the free-slide value g cos θ · t. Beside it, the explicit solver on \
+             the same scene (its film is a Tait fluid, K = 1e5 Pa, with viscosity {} Pa·s, as in \
+             {}): ratio_explicit_single on one grid (the film sticks to the wall) and \
+             ratio_explicit_contact with the multi-grid contact coupling (β = 1 on approach, \
+             δ = 0), with their wall times.",
+            wall_slide::NAME,
+            WALL_FACE + cfg.film,
+            cfg.span.0,
+            cfg.span.1,
+            g_n,
+            g_t,
+            cfg.duration,
+            cfg.viscosity,
+            wall_slide::NAME,
+        );
+        let mut note = format!(
+            "Acceptance: the DIQ film within {:.0}% of free slide at every resolution ({}), \
+             in contact with the wall (interface points at every step of the second half, and \
+             its innermost particle within Δx/2 of the face at the end: {}), and the single grid \
+             clearly slower (ratio < {}: {}).",
+            MAX_SLIP_ERROR * 100.0,
+            if slips { "holds" } else { "does not hold" },
+            if touches { "holds" } else { "does not hold" },
+            wall_slide::MAX_SINGLE_RATIO,
+            if sticks { "holds" } else { "does not hold" },
+        );
+        for r in &runs {
+            note.push_str(&format!(
+                " Δx = 1/{:.0}, ratio to free slide (wall time): DIQ {:.5} ({:.2} s), explicit \
+                 contact {:.4} ({:.2} s), explicit single grid {:.4} ({:.2} s).",
+                1.0 / r.dx,
+                get(r, "ratio_diq"),
+                r.wall_s,
+                get(r, "ratio_explicit_contact"),
+                get(r, "wall_explicit_contact_s"),
+                get(r, "ratio_explicit_single"),
+                get(r, "wall_explicit_single_s"),
+            ));
+        }
         result(NAME, SOLVER, description, runs, failures, None, (ok, note))
     }
 }
@@ -485,7 +659,7 @@ pub mod stability {
         };
         coupled(
             (n, dt_max),
-            (true, true),
+            (Vector::<2>::new(0.0, -G), true),
             solid,
             solid_nu(rho, young, nu),
             ps,

@@ -165,6 +165,10 @@ pub static REGISTRY: &[&dyn Case] = &[
         name: diq_coupled::stiff_limit::NAME,
         run: diq_coupled::stiff_limit::case,
     },
+    &FnCase {
+        name: diq_coupled::free_slip_wall::NAME,
+        run: diq_coupled::free_slip_wall::case,
+    },
 ];
 
 /// The names of all cases, in the order they run.
