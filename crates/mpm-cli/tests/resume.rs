@@ -6,7 +6,7 @@ mod common;
 use common::*;
 use mpm_cli::run::numbered_files;
 use mpm_io::read_file;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 fn run(scene: &Path, out: &Path, extra: &[&str]) {
     let mut args = vec![
@@ -22,8 +22,9 @@ fn run(scene: &Path, out: &Path, extra: &[&str]) {
     assert_eq!(o.status.code(), Some(0), "{:?}: {}", args, stderr(&o));
 }
 
-/// `text` must run for `total` steps and checkpoint at step `n`.
-fn check_resume(name: &str, text: &str, n: u64, total: u64) {
+/// `text` must run for `total` steps and checkpoint at step `n`. Returns the directory of the
+/// uninterrupted run.
+fn check_resume(name: &str, text: &str, n: u64, total: u64) -> PathBuf {
     let d = tmpdir(&format!("resume-{name}"));
     let full = write(&d, "full.toml", text);
     let straight = d.join("straight");
@@ -63,6 +64,7 @@ fn check_resume(name: &str, text: &str, n: u64, total: u64) {
     );
     let frames: Vec<u64> = numbered_files(&same, "snap_").iter().map(|s| s.0).collect();
     assert_eq!(frames, (0..frames.len() as u64).collect::<Vec<_>>());
+    straight
 }
 
 #[test]
@@ -190,6 +192,39 @@ fn resume_diq_coupled_2d_is_bitwise() {
     // The DIQ coupling: a block falls into water across the checkpoint; the solids' reference
     // positions, the solid pressures and the fluid's pressure and divergence are restored.
     check_resume("diq-coupled", DIQ_COUPLED_2D, 30, 60);
+}
+
+#[test]
+fn resume_diq_coupled_a_ulmpm_2d_is_bitwise() {
+    // A-ULMPM solids in the DIQ coupling (diq-mpm §5.4): the checkpoint also holds F^(r,n),
+    // F^(0,r) and the update count. A soft block and a low trigger, so that the reference moves
+    // before and after the checkpoint (the block hits the water after step 30).
+    let t = DIQ_COUPLED_2D
+        .replace("E = 1e5", "E = 1e4")
+        .replace(
+            "[checkpoint]\ninterval_steps = 30",
+            "[checkpoint]\ninterval_steps = 45",
+        )
+        .replace(
+            "[output]",
+            "[tlmpm.reference_update]\nepsilon = 0.001\neta = 0.01\n\n[output]",
+        );
+    let dir = check_resume("diq-coupled-aulmpm", &t, 45, 60);
+    let updates = |step: u64| {
+        let f = read_file(&dir.join(format!("ckpt_{step:06}.h5"))).expect("checkpoint");
+        let attr = f
+            .header
+            .attrs
+            .iter()
+            .find(|(k, _)| k == "diq_reference_updates");
+        attr.map(|&(_, v)| v)
+            .expect("the update count is checkpointed")
+    };
+    let (mid, end) = (updates(45), updates(60));
+    assert!(
+        mid >= 1.0 && end > mid,
+        "reference updates: {mid} by step 45, {end} by 60"
+    );
 }
 
 #[test]

@@ -84,6 +84,18 @@
 //! - **Momentum.** Every row of `J` except the wall rows sums to zero over the nodes (partition
 //!   of unity of `w`, `W` and their gradients; an interface row is `A n` on each side), so
 //!   without walls the projection conserves total momentum; tested to round-off with G2P.
+//!
+//! # A-ULMPM solids (§5.4, Eqs. 37–38)
+//!
+//! With [`mpm_tlmpm::ReferenceUpdate`] the solid's reference configuration `r` moves to the
+//! current one when the trigger fires after an accepted step. The volume term is measured from
+//! it, `Ψ^v(J^(r,n))` (Eq. 37): the solid-pressure rows use the kinematic `F^(r,n)` in place
+//! of `F`, the reference gradients of the current reference grid, and the reference volumes
+//! `V^r = V⁰ det F^(0,r)` in `G^s` and `S^s`; after an update `J^(r,n) = 1`, so `P^s` starts
+//! again from 0 and the solid cells are re-binned. The interface rows need nothing new: `H^s`
+//! is integrated at the particles' positions in the current reference with its weights, which
+//! is Eq. 38's map back. Checkpoints carry `F^(r,n)` and `F^(0,r)` ([`RELATIVE_F`],
+//! [`BASE_F`]) and the update count. Plastic solids are not coupled yet.
 
 use crate::fluid::{Attempt, Bins, DiqFluid, DiqParams, NodeFields, Points};
 use crate::pressure::{Constraints, PressureError, PressureInfo, PressureSystem, UnknownKind};
@@ -128,6 +140,15 @@ pub const REFERENCE_X: &str = "diq_reference_x";
 pub const PRESSURE: &str = "diq_pressure";
 /// Name of the checkpoint column of the fluid cell divergence (1/s; 0 for solid particles).
 pub const DIVERGENCE: &str = "diq_divergence";
+/// Name of the checkpoint column of the A-ULMPM deformation gradients `F^(r,n)` (identity for
+/// fluid particles); written only with A-ULMPM solids.
+pub const RELATIVE_F: &str = "diq_relative_F";
+/// Name of the checkpoint column of the A-ULMPM base deformation gradients `F^(0,r)` (identity
+/// for fluid particles); written once a reference update or plastic flow has made it differ
+/// from the identity.
+pub const BASE_F: &str = "diq_base_F";
+/// Name of the checkpoint attribute of the number of A-ULMPM reference updates.
+const ATTR_REFERENCE_UPDATES: &str = "diq_reference_updates";
 
 /// The solid side of the coupled solver: how the mixed TLMPM solids are integrated.
 #[derive(Clone, Debug, PartialEq)]
@@ -337,15 +358,9 @@ where
         materials: Vec<Material>,
         boundaries: Boundaries<D>,
         mut particles: Particles<D>,
-        restart: Option<(Vec<Vector<D>>, u64)>,
+        restart: Option<TlmpmState<D>>,
         time: Real,
     ) -> Result<Self, SetupError> {
-        if solid_params.tlmpm.reference_update.is_some() {
-            return Err(SetupError::InvalidSetting {
-                setting: "reference_update".into(),
-                reason: "A-ULMPM solids are not coupled to the DIQ fluid yet (diq-mpm §5.4)".into(),
-            });
-        }
         let is_fluid: Vec<bool> = materials
             .iter()
             .map(|m| matches!(m, Material::Fluid(_)))
@@ -414,19 +429,11 @@ where
         tl.on_instability = params.on_instability;
         let mut solid = ImplicitTlmpm::new(spec, tl, solid_params.implicit, solid_mats, solid_ps)?;
         let mut steps = 0;
-        if let Some((reference_positions, s)) = restart {
+        if let Some(state) = restart {
             // The reference configuration of a resumed run is the saved one, not the current
-            // positions.
-            steps = s;
-            solid.restore(TlmpmState {
-                time,
-                steps,
-                reference_positions,
-                relative_def_grad: None,
-                base_def_grad: None,
-                reference_updates: 0,
-                node_velocities: None,
-            })?;
+            // positions (and, with A-ULMPM, the saved F^(r,n) and F^(0,r)).
+            steps = state.steps;
+            solid.restore(state)?;
         }
         if particles.def_grad.is_none() {
             particles.def_grad = Some(vec![Matrix::<D>::identity(); particles.len()]);
@@ -714,6 +721,10 @@ where
         let sp = self.solid.particles();
         let reference = self.solid.reference();
         let jac = self.solid_jacobian();
+        // With A-ULMPM (§5.4, Eq. 37) the volume term is measured from the current reference:
+        // F^(r,n), its reference gradients and the reference volumes V^r = V⁰ det F^(0,r).
+        let rel = self.solid.relative_def_grads();
+        let volume = self.solid.reference_volumes();
         type Row<const D: usize> = (Vec<(usize, Vector<D>)>, Real, Real);
         let built: Vec<Row<D>> = self
             .solid_cells
@@ -722,14 +733,14 @@ where
                 let mut entries = Vec::new();
                 let (mut s, mut sp_n) = (0.0, 0.0);
                 for &p in members {
-                    let f = sp.def_grad_of(p);
+                    let f = rel.map_or_else(|| sp.def_grad_of(p), |g| g[p]);
                     let finv_t =
                         Dim::<D>::inverse(&f).map_or(Matrix::<D>::zeros(), |i| i.transpose());
-                    let scale = sp.volume0[p] * jac[p];
+                    let scale = volume[p] * jac[p];
                     for (i, _, g) in reference.stencil(p) {
                         entries.push((offset + i, -(finv_t * g) * scale));
                     }
-                    let c = sp.volume0[p] / self.lambda_v[p];
+                    let c = volume[p] / self.lambda_v[p];
                     s += c;
                     sp_n += c * self.solid_pressure[p];
                 }
@@ -1128,7 +1139,10 @@ where
         }
         self.solid_pressure = pending.solid_pressure;
         if updated {
+            // A-ULMPM moved the reference: its cells hold other particles, and the volume term
+            // of Eq. 37 starts again from J^(r,n) = 1, i.e. P^s = 0.
             self.bin_solid_cells();
+            self.solid_pressure.fill(0.0);
         }
         self.time += dt;
         self.steps += 1;
@@ -1452,6 +1466,28 @@ where
         state
             .columns
             .push(Column::vectors(REFERENCE_X, "m", &reference));
+        let solid = self.solid.state();
+        let scene_order = |m: &[Matrix<D>]| {
+            let mut out = vec![Matrix::<D>::identity(); self.particles.len()];
+            for (k, &p) in self.solid_index.iter().enumerate() {
+                out[p] = m[k];
+            }
+            out
+        };
+        if let Some(g) = &solid.relative_def_grad {
+            state
+                .columns
+                .push(Column::matrices(RELATIVE_F, "1", &scene_order(g)));
+        }
+        if let Some(b) = &solid.base_def_grad {
+            state
+                .columns
+                .push(Column::matrices(BASE_F, "1", &scene_order(b)));
+        }
+        state.attrs.push((
+            ATTR_REFERENCE_UPDATES.to_string(),
+            solid.reference_updates as f64,
+        ));
         state
             .columns
             .push(Column::scalars(PRESSURE, "Pa", &self.scene_pressure()));
@@ -1482,10 +1518,21 @@ where
                 Material::Fluid(_)
             )
         };
-        let solid_reference: Vec<Vector<D>> = (0..n)
-            .filter(|&p| !is_fluid(p))
-            .map(|p| reference[p])
-            .collect();
+        let solids: Vec<usize> = (0..n).filter(|&p| !is_fluid(p)).collect();
+        let mats = |name: &str| -> Result<Option<Vec<Matrix<D>>>, RestoreError> {
+            Ok(columns::f64_values(&state.columns, name, &[n, D, D])?
+                .map(columns::to_matrices::<D>)
+                .map(|m| solids.iter().map(|&p| m[p]).collect()))
+        };
+        let solid_state = TlmpmState {
+            time: state.time,
+            steps: state.steps,
+            reference_positions: solids.iter().map(|&p| reference[p]).collect(),
+            relative_def_grad: mats(RELATIVE_F)?,
+            base_def_grad: mats(BASE_F)?,
+            reference_updates: state.attr(ATTR_REFERENCE_UPDATES).map_or(0, |v| v as u64),
+            node_velocities: None,
+        };
         let mut s = Self::build(
             *Solver::spec(&self.fluid),
             self.params.clone(),
@@ -1493,7 +1540,7 @@ where
             self.materials.clone(),
             self.boundaries.clone(),
             particles,
-            Some((solid_reference, state.steps)),
+            Some(solid_state),
             state.time,
         )
         .map_err(|e| RestoreError(format!("does not fit this scene: {e}")))?;

@@ -99,6 +99,14 @@ fn column(n: usize, h: Real, method: PressureMethod) -> DiqFluid<2> {
     .unwrap()
 }
 
+/// Runs `f` on a pool of `threads` rayon threads.
+pub(crate) fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool")
+        .install(f)
+}
 #[test]
 fn assembled_matrix_is_symmetric_positive_and_equals_dense_schur_complement() {
     // A swirling 2D blob with a free surface: dense J M⁻¹ Jᵀ against the assembled matrix.
@@ -336,11 +344,7 @@ fn position_correction_bounds_volume_drift() {
 #[test]
 fn bitwise_identical_across_threads_and_resume() {
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        with_threads(threads, || {
             let mut f = dam_break(24, true);
             for _ in 0..15 {
                 f.advance().unwrap();

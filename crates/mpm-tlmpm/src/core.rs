@@ -327,6 +327,28 @@ macro_rules! shared_accessors {
             &self.core.reference
         }
 
+        /// A-ULMPM: the kinematic deformation gradients `F^(r,n)` from the current reference
+        /// configuration to the current one (one per particle); `None` without
+        /// [`TlmpmParams::reference_update`], where the reference is the initial configuration
+        /// and `F^(r,n)` is the particles' `F`.
+        pub fn relative_def_grads(&self) -> Option<&[Matrix<D>]> {
+            self.core.adaptive.as_ref().map(|a| a.rel.as_slice())
+        }
+
+        /// The particle volumes in the current reference configuration (m^D):
+        /// `V⁰ det F^(0,r)` with A-ULMPM's base `F^(0,r)`, else `V⁰`.
+        pub fn reference_volumes(&self) -> Vec<Real> {
+            let v0 = &self.core.particles.volume0;
+            match self.core.adaptive.as_ref().and_then(|a| a.base.as_ref()) {
+                Some(base) => v0
+                    .iter()
+                    .zip(base)
+                    .map(|(v, b)| v * Dim::<D>::det(b))
+                    .collect(),
+                None => v0.clone(),
+            }
+        }
+
         /// Simulation time (s).
         pub fn time(&self) -> Real {
             self.core.time

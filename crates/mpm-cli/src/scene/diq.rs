@@ -209,19 +209,13 @@ fn resolve_diq(c: &mut Checker<'_>, raw: RawDiqTables, common: Common<'_>) -> Di
 }
 
 /// What the DIQ coupling does not take from the TLMPM tables: the explicit integrator (the
-/// coupling drives the Newton solve), A-ULMPM (not coupled yet, diq-mpm §5.4), and moving
-/// colliders (the solids' penalty obstacles are static).
+/// coupling drives the Newton solve) and moving colliders (the solids' penalty obstacles are
+/// static).
 fn check_solid_tables(c: &mut Checker<'_>, solids: &TlmpmScene, boundaries: &[BoundaryDef]) {
     if solids.tlmpm.integrator != IntegratorKind::Implicit {
         c.err(
             "tlmpm.integrator",
             "the DIQ coupling drives the implicit Newton TLMPM: use integrator = \"implicit\"",
-        );
-    }
-    if solids.tlmpm.reference_update.is_some() {
-        c.err(
-            "tlmpm.reference_update",
-            "A-ULMPM solids are not coupled to the DIQ fluid yet (diq-mpm §5.4)",
         );
     }
     for (i, b) in boundaries.iter().enumerate() {

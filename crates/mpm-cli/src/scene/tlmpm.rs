@@ -496,8 +496,8 @@ pub(crate) fn resolve_solid_tables(
             c.err(
                 &format!("materials[{i}].plasticity"),
                 format!(
-                    "plastic material \"{}\" needs A-ULMPM reference updates, which are not \
-                     coupled to the DIQ fluid yet (diq-mpm §5.4)",
+                    "plastic material \"{}\": plastic solids are not coupled to the DIQ fluid \
+                     yet (elastic solids are, also with A-ULMPM reference updates)",
                     m.name
                 ),
             );
