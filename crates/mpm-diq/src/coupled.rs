@@ -969,7 +969,7 @@ where
                 fluid.assemble_onto(rows, inv_mass, dt, system, stage)
             })
             .map_err(lift)?;
-        let nf = u.len() - self.solid.node_velocities(dt).len();
+        let nf = u.len() - self.solid.reference().node_masses().len();
         let inv_solid = &inv_mass[nf..];
         let dx = Solver::spec(&self.fluid).dx;
         let it = self.solid_params.coupling;
@@ -1592,5 +1592,44 @@ where
             )],
             _ => columns::particle_column(&self.particles, name),
         }
+    }
+}
+
+#[cfg(test)]
+mod anderson_tests {
+    use super::Anderson;
+    use mpm_core::{Real, Vector};
+
+    /// An affine contraction `T(f) = A f + b` on three 2-vectors, `A` diagonal with the rates of
+    /// a stiff solid's slow interface modes (0.99) down to 0; its fixed point is `b/(1 − a)`.
+    fn map(f: &[Vector<2>]) -> Vec<Vector<2>> {
+        let a = [0.99, 0.9, 0.5, 0.2, 0.1, 0.0];
+        (0..3)
+            .map(|k| Vector::<2>::from_fn(|c, _| a[2 * k + c] * f[k][c] + 1.0))
+            .collect()
+    }
+
+    fn error(f: &[Vector<2>]) -> Real {
+        let a = [0.99, 0.9, 0.5, 0.2, 0.1, 0.0];
+        (0..6)
+            .map(|i| (f[i / 2][i % 2] - 1.0 / (1.0 - a[i])).abs())
+            .fold(0.0, Real::max)
+    }
+
+    #[test]
+    fn anderson_solves_an_affine_fixed_point_where_the_plain_iteration_crawls() {
+        let (mut plain, mut fast) = (vec![Vector::<2>::zeros(); 3], vec![Vector::<2>::zeros(); 3]);
+        let mut acc = Anderson::<2>::default();
+        for _ in 0..10 {
+            plain = map(&plain);
+            let delta = acc.step(&fast, &map(&fast));
+            for (f, d) in fast.iter_mut().zip(&delta) {
+                *f += d;
+            }
+        }
+        // On an affine map Anderson behaves like GMRES: ten passes resolve the six rates; the
+        // plain iteration is still 90 % short on the 0.99 mode (error 0.99¹⁰ · 100 = 90).
+        assert!(error(&fast) < 1e-8, "Anderson: {:e}", error(&fast));
+        assert!(error(&plain) > 80.0, "plain: {:e}", error(&plain));
     }
 }
