@@ -240,6 +240,10 @@ struct Runner<'a, const D: usize> {
     checkpoint_schedule: Option<(Schedule, CheckpointDef)>,
     /// Diagnostics at time 0 (from the checkpoint when resuming).
     initial: Diagnostics<D>,
+    /// Step and diagnostics of the last state known good: the start of this run or the last
+    /// snapshot. A failed step may leave the particles holding its partial result, so the
+    /// summary of a failed run reports these.
+    last_good: (u64, Diagnostics<D>),
     /// Step of the last snapshot and checkpoint written.
     last_snapshot_step: Option<u64>,
     last_checkpoint_step: Option<u64>,
@@ -356,6 +360,7 @@ where
             snapshot_schedule: Schedule::new(sc.output.interval),
             checkpoint_schedule: sc.checkpoint.map(|c| (Schedule::new(c.interval), c)),
             initial,
+            last_good: (0, initial),
             last_snapshot_step: None,
             last_checkpoint_step: None,
             last_dt: 0.0,
@@ -577,6 +582,7 @@ where
         }
         self.frame += 1;
         self.last_snapshot_step = Some(self.solver.steps());
+        self.last_good = (self.solver.steps(), self.solver.diagnostics());
         self.io_seconds += t.elapsed().as_secs_f64();
         Ok(())
     }
@@ -675,6 +681,7 @@ where
             );
         }
         let mut failure: Option<CliError> = None;
+        self.last_good = (self.solver.steps(), self.solver.diagnostics());
         if self.series.is_empty() && self.frame == 0 {
             failure = self.write_snapshot().err();
         }
@@ -896,7 +903,10 @@ where
         failure: Option<&CliError>,
         interrupted: Option<i32>,
     ) -> serde_json::Value {
-        let fin = self.solver.diagnostics();
+        let (final_step, fin) = match failure {
+            Some(_) => self.last_good,
+            None => (self.solver.steps(), self.solver.diagnostics()),
+        };
         let ini = &self.initial;
         let vec3 = |v: &[f64]| v.to_vec();
         let diff_norm = |a: &[f64], b: &[f64]| {
@@ -985,7 +995,9 @@ where
             "conservation": {
                 "note": "drift = |final - initial| from t = 0 (over resumed runs too); gravity, \
                          walls and colliders change momentum and energy, and the solver \
-                         dissipates energy, so only mass is expected to be exactly conserved",
+                         dissipates energy, so only mass is expected to be exactly conserved; \
+                         after a failure, final is the last snapshot's state",
+                "final_step": final_step,
                 "mass": {
                     "initial": ini.mass, "final": fin.mass,
                     "drift": mass_abs, "relative_drift": rel(mass_abs, ini.mass.abs()),

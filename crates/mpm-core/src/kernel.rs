@@ -62,7 +62,7 @@ impl Kernel {
     /// First stencil node along one axis for grid-unit coordinate `xh`.
     #[inline]
     pub fn base_node(self, xh: Real) -> i64 {
-        (xh - self.lower_margin()).floor() as i64
+        floor(xh - self.lower_margin()) as i64
     }
 
     /// 1D stencil at grid-unit coordinate `xh`: first node index, weights, and derivatives of
@@ -72,7 +72,7 @@ impl Kernel {
         let mut dw = [0.0; MAX_SUPPORT];
         match self {
             Kernel::Linear => {
-                let base = xh.floor();
+                let base = floor(xh);
                 let fx = xh - base;
                 w[0] = 1.0 - fx;
                 w[1] = fx;
@@ -81,7 +81,7 @@ impl Kernel {
                 (base as i64, w, dw)
             }
             Kernel::Quadratic => {
-                let base = (xh - 0.5).floor();
+                let base = floor(xh - 0.5);
                 let fx = xh - base;
                 w[0] = 0.5 * (1.5 - fx) * (1.5 - fx);
                 w[1] = 0.75 - (fx - 1.0) * (fx - 1.0);
@@ -92,7 +92,7 @@ impl Kernel {
                 (base as i64, w, dw)
             }
             Kernel::Cubic => {
-                let base = xh.floor() - 1.0;
+                let base = floor(xh) - 1.0;
                 let fx = xh - base;
                 for k in 0..4 {
                     let d = fx - k as Real;
@@ -109,6 +109,23 @@ impl Kernel {
                 (base as i64, w, dw)
             }
         }
+    }
+}
+
+/// `⌊v⌋`, the same value as [`Real::floor`] for every input, without the library call that the
+/// baseline x86-64 target makes of it: below 2⁵² the truncation to an integer is exact.
+#[inline]
+fn floor(v: Real) -> Real {
+    if v.abs() < 4503599627370496.0 {
+        let t = v as i64 as Real;
+        if t > v {
+            t - 1.0
+        } else {
+            // −0.0 stays −0.0.
+            t.copysign(v)
+        }
+    } else {
+        v.floor()
     }
 }
 
@@ -199,6 +216,79 @@ impl<const D: usize> Stencil<D> {
     }
 }
 
+/// One particle's stencil as per-axis factors, for kernels of `S` nodes per axis: the weights
+/// and the offsets `x_i − x_p` of the nodes along each axis. The hot
+/// transfers iterate it by rows along axis 0 ([`AxisStencil::for_each_row`]), so the factors
+/// of the other axes are multiplied once per row rather than once per node.
+#[derive(Clone, Copy, Debug)]
+pub struct AxisStencil<const D: usize, const S: usize> {
+    /// Multi-index of the first node of the stencil.
+    pub base: [i64; D],
+    /// `w[a][o]`: 1D weight of the node at offset `o` along axis `a` (dimensionless).
+    pub w: [[Real; S]; D],
+    /// `d[a][o]`: component `a` of `x_i − x_p` for the nodes at offset `o` along axis `a` (m).
+    pub d: [[Real; S]; D],
+}
+
+impl<const D: usize, const S: usize> AxisStencil<D, S> {
+    /// Builds the stencil of `kernel`, which must have `S` nodes per axis, on grid `spec` at
+    /// position `x` (m), in 1 to 3 dimensions.
+    ///
+    /// # Panics
+    /// In debug builds, when `kernel.support() != S` or `D > 3`.
+    #[inline]
+    pub fn new(kernel: Kernel, spec: &GridSpec<D>, x: &Vector<D>) -> Self {
+        debug_assert_eq!(kernel.support(), S);
+        debug_assert!(D <= 3);
+        let inv_dx = 1.0 / spec.dx;
+        let mut st = Self {
+            base: [0; D],
+            w: [[0.0; S]; D],
+            d: [[0.0; S]; D],
+        };
+        for a in 0..D {
+            let (b, w, _) = kernel.weights_1d((x[a] - spec.origin[a]) * inv_dx);
+            st.base[a] = b;
+            for o in 0..S {
+                st.w[a][o] = w[o];
+                st.d[a][o] = spec.origin[a] + (b + o as i64) as Real * spec.dx - x[a];
+            }
+        }
+        st
+    }
+
+    /// Calls `f(offsets, weight, d)` for each row of the stencil along axis 0, in the order of
+    /// [`Stencil::for_each`]: `offsets` holds the node offsets of axes `1..D` (entry 0 is 0),
+    /// `weight` the product of their weights, and `d` their components of `x_i − x_p` (m;
+    /// component 0 is 0). The caller walks the `S` nodes of the row with `w[0]` and `d[0]`.
+    #[inline(always)]
+    pub fn for_each_row(&self, mut f: impl FnMut(&[usize; D], Real, &Vector<D>)) {
+        let mut o = [0usize; D];
+        let mut d = Vector::<D>::zeros();
+        match D {
+            1 => f(&o, 1.0, &d),
+            2 => {
+                for j in 0..S {
+                    o[1] = j;
+                    d[1] = self.d[1][j];
+                    f(&o, self.w[1][j], &d);
+                }
+            }
+            _ => {
+                for k in 0..S {
+                    o[D - 1] = k;
+                    d[D - 1] = self.d[D - 1][k];
+                    for j in 0..S {
+                        o[1] = j;
+                        d[1] = self.d[1][j];
+                        f(&o, self.w[1][j] * self.w[D - 1][k], &d);
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -261,6 +351,71 @@ mod tests {
     fn partition_of_unity_gradient_consistency_and_inertia() {
         partition_of_unity_and_consistency::<2>();
         partition_of_unity_and_consistency::<3>();
+    }
+
+    /// The row walk of [`AxisStencil`] visits the nodes of [`Stencil::for_each`] in the same
+    /// order with the same weights (to round-off: the products associate differently) and
+    /// the offsets `x_i − x_p`.
+    fn rows_match_the_stencil<const D: usize, const S: usize>(kernel: Kernel) {
+        let spec = spec::<D>();
+        for x in positions::<D>() {
+            let mut nodes = Vec::new();
+            Stencil::new(kernel, &spec, &x).for_each(|node, w, _| nodes.push((node, w)));
+            let st = AxisStencil::<D, S>::new(kernel, &spec, &x);
+            let mut k = 0;
+            st.for_each_row(|o, wr, dr| {
+                for i in 0..S {
+                    let (node, w) = nodes[k];
+                    k += 1;
+                    assert_eq!(node[0], st.base[0] + i as i64);
+                    for a in 1..D {
+                        assert_eq!(node[a], st.base[a] + o[a] as i64);
+                    }
+                    assert_relative_eq!(st.w[0][i] * wr, w, max_relative = 1e-14);
+                    let d = spec.node_position(&node) - x;
+                    assert_eq!(d[0], st.d[0][i]);
+                    for a in 1..D {
+                        assert_eq!(d[a], dr[a]);
+                    }
+                }
+            });
+            assert_eq!(k, S.pow(D as u32));
+        }
+    }
+
+    #[test]
+    fn floor_matches_the_library_floor() {
+        for v in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999999,
+            -2.000001,
+            1e15 + 0.5,
+            -1e15 - 0.5,
+            4.6e18,
+            -4.6e18,
+            1e300,
+            Real::INFINITY,
+            Real::NEG_INFINITY,
+            Real::MIN_POSITIVE,
+            -1e-300,
+        ] {
+            assert_eq!(floor(v).to_bits(), v.floor().to_bits(), "{v}");
+        }
+        assert!(floor(Real::NAN).is_nan());
+    }
+
+    #[test]
+    fn axis_stencil_rows_match_the_stencil() {
+        rows_match_the_stencil::<2, 3>(Kernel::Quadratic);
+        rows_match_the_stencil::<3, 3>(Kernel::Quadratic);
+        rows_match_the_stencil::<2, 4>(Kernel::Cubic);
+        rows_match_the_stencil::<3, 4>(Kernel::Cubic);
+        rows_match_the_stencil::<3, 2>(Kernel::Linear);
     }
 
     #[test]

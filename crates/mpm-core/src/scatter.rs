@@ -279,9 +279,11 @@ pub struct Blocks<const D: usize> {
     /// Grid and kernel of the last sort.
     grid: Option<(GridSpec<D>, Kernel)>,
     dims: [usize; D],
-    block_of: Vec<usize>,
+    /// Block of each particle (`u32::MAX`: not binned).
+    block_of: Vec<u32>,
     counts: Vec<usize>,
-    order: Vec<usize>,
+    /// Binned particle indices, sorted by block.
+    order: Vec<u32>,
     /// Non-empty blocks: (block id, start, end) ranges into `order`.
     ranges: Vec<(usize, usize, usize)>,
 }
@@ -311,7 +313,9 @@ impl<const D: usize> Blocks<D> {
     }
 
     /// Bins the particles `p` at positions `x` (m) with `keep(p)`; the others take part in no
-    /// scatter. Every kept position must have its stencil inside the grid.
+    /// scatter. Every kept position must have its stencil inside the grid. Particle and block
+    /// indices are stored as `u32`: fewer than 2³² − 1 of each (checked in debug builds; a
+    /// dense grid of that many blocks would not fit in memory).
     pub fn sort_where(
         &mut self,
         spec: &GridSpec<D>,
@@ -323,13 +327,14 @@ impl<const D: usize> Blocks<D> {
         self.grid = Some((*spec, kernel));
         self.dims = std::array::from_fn(|a| spec.size[a].div_ceil(b));
         let nblocks: usize = self.dims.iter().product();
+        debug_assert!(nblocks < u32::MAX as usize && x.len() < u32::MAX as usize);
         let inv_dx = 1.0 / spec.dx;
         let dims = self.dims;
         x.par_iter()
             .enumerate()
             .map(|(p, xp)| {
                 if !keep(p) {
-                    return usize::MAX;
+                    return u32::MAX;
                 }
                 let mut id = 0;
                 let mut stride = 1;
@@ -338,13 +343,13 @@ impl<const D: usize> Blocks<D> {
                     id += (base / b).min(dims[a] - 1) * stride;
                     stride *= dims[a];
                 }
-                id
+                id as u32
             })
             .collect_into_vec(&mut self.block_of);
         self.counts.clear();
         self.counts.resize(nblocks + 1, 0);
-        for &id in self.block_of.iter().filter(|&&id| id != usize::MAX) {
-            self.counts[id + 1] += 1;
+        for &id in self.block_of.iter().filter(|&&id| id != u32::MAX) {
+            self.counts[id as usize + 1] += 1;
         }
         self.ranges.clear();
         for id in 0..nblocks {
@@ -357,16 +362,17 @@ impl<const D: usize> Blocks<D> {
         self.order.clear();
         self.order.resize(self.counts[nblocks], 0);
         for (p, &id) in self.block_of.iter().enumerate() {
-            if id == usize::MAX {
+            if id == u32::MAX {
                 continue;
             }
-            self.order[self.counts[id]] = p;
+            let id = id as usize;
+            self.order[self.counts[id]] = p as u32;
             self.counts[id] += 1;
         }
     }
 
     /// The binned particles sorted by block, in index order within a block.
-    pub fn order(&self) -> &[usize] {
+    pub fn order(&self) -> &[u32] {
         &self.order
     }
 
@@ -379,7 +385,7 @@ impl<const D: usize> Blocks<D> {
     /// arrays)`. Add [`BlockBuffers::bytes`] for the buffers.
     pub fn bytes(&self) -> (usize, usize) {
         let u = std::mem::size_of::<usize>();
-        let per_particle = (self.block_of.len() + self.order.len()) * u;
+        let per_particle = (self.block_of.len() + self.order.len()) * std::mem::size_of::<u32>();
         let grid = self.counts.len() * u + self.ranges.len() * 3 * u;
         (per_particle, grid)
     }
@@ -419,7 +425,7 @@ impl<const D: usize> Blocks<D> {
                 let window = window_of(id);
                 buf.reset(enabled, len);
                 for &p in &order[start..end] {
-                    f(p, &window, buf);
+                    f(p as usize, &window, buf);
                 }
             });
         out.zero(spec.num_nodes());
@@ -719,7 +725,7 @@ mod tests {
         let mut blocks = Blocks::default();
         blocks.sort_where(&spec, kernel, &c.x, keep);
         assert_eq!(blocks.order().len(), (0..2000).filter(|&p| keep(p)).count());
-        assert!(blocks.order().iter().all(|&p| keep(p)));
+        assert!(blocks.order().iter().all(|&p| keep(p as usize)));
         let sums = block_scatter(&blocks, &mut BlockBuffers::default(), &spec, kernel, &c);
         let serial = serial_scatter(&spec, kernel, &c, keep);
         let kept: Real = (0..2000).filter(|&p| keep(p)).map(|p| c.m[p]).sum();

@@ -409,7 +409,11 @@ where
     /// The stages each step runs, decided by the set-up.
     fn plan(&self) -> StagePlan;
 
-    /// Advances one step. A failed step leaves the state untouched.
+    /// Advances one step. After a failed step, time and the step count have not advanced; a
+    /// retry under [`OnInstability::Retry`] starts from the state before the failed attempt.
+    /// Under [`OnInstability::Abort`] a solver may leave its particles holding the failed
+    /// step's partial result (the explicit solver updates them in place): read nothing but
+    /// the error after an aborted step.
     fn step(&mut self) -> Result<StepInfo, StepError>;
 
     /// Wall time per planned stage, in plan order.

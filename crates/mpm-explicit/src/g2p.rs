@@ -1,9 +1,15 @@
 //! Grid-to-particle transfer (multigrid paper Eqs. 8–10): velocity, affine field, deformation
 //! update with plasticity, fluid J, advection, and the particle guard checks.
 //!
-//! Results go to a scratch buffer first and are committed only when every particle passes its
-//! checks, so a failed step leaves the particles exactly as they were (a dt/2 retry needs no
-//! backup copy).
+//! G2P writes each particle's new state straight into its columns (no per-particle result
+//! buffer), so a failed guard check leaves the step's partial result behind. The solver keeps a
+//! copy of the columns G2P rewrites ([`Moving`]) only when its instability policy retries steps,
+//! and puts it back before the retry.
+//!
+//! With the quadratic and cubic kernels the gather walks the stencil by rows along the first
+//! axis ([`AxisStencil`]), reading the node velocities of a row from consecutive grid entries;
+//! the linear kernel, and particles whose stencil reaches outside the grid, take the general
+//! path over [`Stencil`].
 
 use crate::materials::MaterialView;
 use crate::multigrid::{Dissolution, Mixing, Porous};
@@ -11,33 +17,187 @@ use crate::p2g::mls_gradient;
 use crate::params::{SoftWalls, Transfer};
 use mpm_core::material::PlasticState;
 use mpm_core::{
-    Dim, DimOps, GridNodes, GridSpec, Kernel, Location, Material, Matrix, Particles, Real, Stencil,
-    Vector, Violation,
+    AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Location, Material, Matrix, Particles,
+    Real, Stencil, Vector, Violation,
 };
 use rayon::prelude::*;
 
-/// The new state of one particle, before commit.
+/// Particles per work item of the in-place update.
+const CHUNK: usize = 1024;
+
+/// The new state of one particle, checked before it is written.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Update<const D: usize> {
+struct Update<const D: usize> {
     x: Vector<D>,
     v: Vector<D>,
     c: Matrix<D>,
     f: Matrix<D>,
     j: Real,
     plastic: PlasticState,
-    fault: Option<(Violation, Real)>,
 }
 
-impl<const D: usize> Default for Update<D> {
-    fn default() -> Self {
+/// The state of one particle that G2P reads before it rewrites it.
+#[derive(Clone, Copy, Debug)]
+struct Old<const D: usize> {
+    x: Vector<D>,
+    v: Vector<D>,
+    f: Matrix<D>,
+    j: Real,
+    plastic: Option<PlasticState>,
+}
+
+/// The particle columns G2P rewrites: positions, velocities, affine fields, and the deformation
+/// gradients, volume ratios and plastic states where they exist. Also the solver's backup of
+/// them for dt/2 retries.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Moving<const D: usize> {
+    x: Vec<Vector<D>>,
+    v: Vec<Vector<D>>,
+    affine: Vec<Matrix<D>>,
+    def_grad: Option<Vec<Matrix<D>>>,
+    jacobian: Option<Vec<Real>>,
+    plastic: Option<Vec<PlasticState>>,
+}
+
+impl<const D: usize> Moving<D> {
+    /// Moves the columns out of `particles`, leaving them empty there.
+    fn take(particles: &mut Particles<D>) -> Self {
         Self {
-            x: Vector::<D>::zeros(),
-            v: Vector::<D>::zeros(),
-            c: Matrix::<D>::zeros(),
-            f: Matrix::<D>::identity(),
-            j: 1.0,
-            plastic: PlasticState::default(),
-            fault: None,
+            x: std::mem::take(&mut particles.x),
+            v: std::mem::take(&mut particles.v),
+            affine: std::mem::take(&mut particles.affine),
+            def_grad: particles.def_grad.as_mut().map(std::mem::take),
+            jacobian: particles.jacobian.as_mut().map(std::mem::take),
+            plastic: particles.plastic.as_mut().map(std::mem::take),
+        }
+    }
+
+    /// Moves the columns back into `particles`.
+    fn put_back(self, particles: &mut Particles<D>) {
+        particles.x = self.x;
+        particles.v = self.v;
+        particles.affine = self.affine;
+        particles.def_grad = self.def_grad;
+        particles.jacobian = self.jacobian;
+        particles.plastic = self.plastic;
+    }
+
+    /// Copies the columns of `particles` into `self`, reusing its allocations.
+    pub fn save(&mut self, particles: &Particles<D>) {
+        fn copy<T: Clone>(to: &mut Option<Vec<T>>, from: &Option<Vec<T>>) {
+            match (to.as_mut(), from) {
+                (Some(t), Some(f)) => t.clone_from(f),
+                _ => *to = from.clone(),
+            }
+        }
+        self.x.clone_from(&particles.x);
+        self.v.clone_from(&particles.v);
+        self.affine.clone_from(&particles.affine);
+        copy(&mut self.def_grad, &particles.def_grad);
+        copy(&mut self.jacobian, &particles.jacobian);
+        copy(&mut self.plastic, &particles.plastic);
+    }
+
+    /// Copies the saved columns back into `particles`.
+    pub fn restore(&self, particles: &mut Particles<D>) {
+        fn copy<T: Clone>(to: &mut Option<Vec<T>>, from: &Option<Vec<T>>) {
+            if let (Some(t), Some(f)) = (to.as_mut(), from) {
+                t.clone_from(f);
+            }
+        }
+        particles.x.clone_from(&self.x);
+        particles.v.clone_from(&self.v);
+        particles.affine.clone_from(&self.affine);
+        copy(&mut particles.def_grad, &self.def_grad);
+        copy(&mut particles.jacobian, &self.jacobian);
+        copy(&mut particles.plastic, &self.plastic);
+    }
+
+    /// Bytes held (lengths, not capacities).
+    pub fn bytes(&self) -> usize {
+        fn len<T>(c: &Option<Vec<T>>) -> usize {
+            c.as_ref().map_or(0, |c| c.len() * std::mem::size_of::<T>())
+        }
+        self.x.len() * std::mem::size_of::<Vector<D>>() * 2
+            + self.affine.len() * std::mem::size_of::<Matrix<D>>()
+            + len(&self.def_grad)
+            + len(&self.jacobian)
+            + len(&self.plastic)
+    }
+
+    /// Splits the columns into runs of at most `size` particles.
+    fn chunks(&mut self, size: usize) -> Vec<Chunk<'_, D>> {
+        fn split<'a, T>(s: &mut Option<&'a mut [T]>, n: usize) -> Option<&'a mut [T]> {
+            let (head, tail) = s.take()?.split_at_mut(n);
+            *s = Some(tail);
+            Some(head)
+        }
+        let n = self.x.len();
+        let (mut x, mut v, mut c) = (
+            self.x.as_mut_slice(),
+            self.v.as_mut_slice(),
+            self.affine.as_mut_slice(),
+        );
+        let mut f = self.def_grad.as_deref_mut();
+        let mut j = self.jacobian.as_deref_mut();
+        let mut s = self.plastic.as_deref_mut();
+        let mut out = Vec::with_capacity(n.div_ceil(size));
+        let mut start = 0;
+        while start < n {
+            let len = size.min(n - start);
+            let (xh, xt) = std::mem::take(&mut x).split_at_mut(len);
+            let (vh, vt) = std::mem::take(&mut v).split_at_mut(len);
+            let (ch, ct) = std::mem::take(&mut c).split_at_mut(len);
+            (x, v, c) = (xt, vt, ct);
+            out.push(Chunk {
+                start,
+                x: xh,
+                v: vh,
+                c: ch,
+                f: split(&mut f, len),
+                j: split(&mut j, len),
+                plastic: split(&mut s, len),
+            });
+            start += len;
+        }
+        out
+    }
+}
+
+/// A run of consecutive particles' [`Moving`] columns, starting at particle `start`.
+struct Chunk<'a, const D: usize> {
+    start: usize,
+    x: &'a mut [Vector<D>],
+    v: &'a mut [Vector<D>],
+    c: &'a mut [Matrix<D>],
+    f: Option<&'a mut [Matrix<D>]>,
+    j: Option<&'a mut [Real]>,
+    plastic: Option<&'a mut [PlasticState]>,
+}
+
+impl<const D: usize> Chunk<'_, D> {
+    fn old(&self, i: usize) -> Old<D> {
+        Old {
+            x: self.x[i],
+            v: self.v[i],
+            f: self.f.as_ref().map_or(Matrix::<D>::identity(), |f| f[i]),
+            j: self.j.as_ref().map_or(1.0, |j| j[i]),
+            plastic: self.plastic.as_ref().map(|s| s[i]),
+        }
+    }
+
+    fn write(&mut self, i: usize, u: &Update<D>) {
+        self.x[i] = u.x;
+        self.v[i] = u.v;
+        self.c[i] = u.c;
+        if let Some(f) = &mut self.f {
+            f[i] = u.f;
+        }
+        if let Some(j) = &mut self.j {
+            j[i] = u.j;
+        }
+        if let Some(s) = &mut self.plastic {
+            s[i] = u.plastic;
         }
     }
 }
@@ -70,53 +230,122 @@ pub(crate) struct ExtraContext<'a> {
     pub alpha: Option<&'a [Real]>,
 }
 
+/// What a particle gathers from its grid: the PIC velocity, the FLIP velocity increment and
+/// the affine field C.
+type Gathered<const D: usize> = (Vector<D>, Vector<D>, Matrix<D>);
+
 impl<const D: usize> G2pContext<'_, D>
 where
     Dim<D>: DimOps<D>,
 {
-    /// Gathers from the grid into `updates` and runs the guard checks. Returns the first
-    /// (lowest-index) failing particle.
-    /// `grids` and, with FLIP, `velocity_old` have one entry per phase.
-    pub fn gather(
+    /// Gathers from the grid and writes every particle's new state in place, with the guard
+    /// checks. Returns the first (lowest-index) failing particle; the particles then hold the
+    /// step's partial result. `grids` and, with FLIP, `velocity_old` have one entry per phase.
+    pub fn advance(
         &self,
-        particles: &Particles<D>,
+        particles: &mut Particles<D>,
         grids: &[GridNodes<D>],
         velocity_old: Option<&[Vec<Vector<D>>]>,
-        updates: &mut Vec<Update<D>>,
         dt: Real,
     ) -> Result<(), (Location, Violation, Real)> {
-        updates.resize(particles.len(), Update::default());
-        updates.par_iter_mut().enumerate().for_each(|(p, u)| {
-            let k = particles.phase_of(p) as usize;
-            let v0 = velocity_old.map(|v| v[k].as_slice());
-            *u = self.particle(particles, &grids[k], v0, p, dt)
-        });
-        match updates.par_iter().position_first(|u| u.fault.is_some()) {
-            Some(p) => {
-                let (violation, value) = updates[p].fault.unwrap_or((Violation::LeftDomain, 0.0));
-                Err((Location::Particle(p), violation, value))
-            }
+        let mut moving = Moving::take(particles);
+        let fixed: &Particles<D> = particles;
+        let fault = moving
+            .chunks(CHUNK)
+            .into_par_iter()
+            .filter_map(|mut chunk| {
+                let mut first = None;
+                for i in 0..chunk.x.len() {
+                    let p = chunk.start + i;
+                    let k = fixed.phase_of(p) as usize;
+                    let v0 = velocity_old.map(|v| v[k].as_slice());
+                    let (u, fault) = self.particle(fixed, &grids[k], v0, p, &chunk.old(i), dt);
+                    chunk.write(i, &u);
+                    if first.is_none() {
+                        first = fault.map(|(violation, value)| (p, violation, value));
+                    }
+                }
+                first
+            })
+            .min_by_key(|f| f.0);
+        moving.put_back(particles);
+        match fault {
+            Some((p, violation, value)) => Err((Location::Particle(p), violation, value)),
             None => Ok(()),
         }
     }
 
-    fn particle(
+    /// The PIC velocity, FLIP increment and C of a particle at `xp`, by rows of the stencil.
+    /// `None` when the stencil reaches outside the grid.
+    fn gather_rows<const S: usize>(
         &self,
-        particles: &Particles<D>,
         grid: &GridNodes<D>,
         velocity_old: Option<&[Vector<D>]>,
-        p: usize,
-        dt: Real,
-    ) -> Update<D> {
+        minv: Real,
+        xp: &Vector<D>,
+    ) -> Option<Gathered<D>> {
+        let spec = self.spec;
+        let st = AxisStencil::<D, S>::new(self.kernel, spec, xp);
+        let mut stride = [0usize; D];
+        let mut first = 0usize;
+        let mut s = 1usize;
+        for a in 0..D {
+            let b = st.base[a];
+            if b < 0 || b as usize + S > spec.size[a] {
+                return None;
+            }
+            stride[a] = s;
+            first += b as usize * s;
+            s *= spec.size[a];
+        }
+        let (mut v, mut dv, mut b) = (
+            Vector::<D>::zeros(),
+            Vector::<D>::zeros(),
+            Matrix::<D>::zeros(),
+        );
+        st.for_each_row(|o, wr, dr| {
+            let mut i0 = first;
+            for a in 1..D {
+                i0 += o[a] * stride[a];
+            }
+            let row = &grid.velocity[i0..i0 + S];
+            let (mut sum, mut col0) = (Vector::<D>::zeros(), Vector::<D>::zeros());
+            for i in 0..S {
+                let w = st.w[0][i] * wr;
+                let wv = row[i] * w;
+                sum += wv;
+                col0 += wv * st.d[0][i];
+                if let Some(v0) = velocity_old {
+                    dv += (row[i] - v0[i0 + i]) * w;
+                }
+            }
+            v += sum;
+            let mut c0 = b.column_mut(0);
+            c0 += col0;
+            for a in 1..D {
+                let mut ca = b.column_mut(a);
+                ca += sum * dr[a];
+            }
+        });
+        Some((v, dv, b * minv))
+    }
+
+    /// The PIC velocity, FLIP increment and C of a particle at `xp` over the general stencil
+    /// (any kernel; nodes outside the grid are skipped).
+    fn gather_nodes(
+        &self,
+        grid: &GridNodes<D>,
+        velocity_old: Option<&[Vector<D>]>,
+        xp: &Vector<D>,
+    ) -> Gathered<D> {
         let spec = self.spec;
         let minv = self.kernel.mls_inertia_inv(spec.dx);
-        let xp = particles.x[p];
         let (mut v_pic, mut dv, mut c) = (
             Vector::<D>::zeros(),
             Vector::<D>::zeros(),
             Matrix::<D>::zeros(),
         );
-        Stencil::new(self.kernel, spec, &xp).for_each(|node, w, grad| {
+        Stencil::new(self.kernel, spec, xp).for_each(|node, w, grad| {
             let Some(i) = spec.linear_index(&node) else {
                 return;
             };
@@ -128,8 +357,37 @@ where
                 dv += (vi - v0[i]) * w;
             }
         });
+        (v_pic, dv, c)
+    }
+
+    fn gather(
+        &self,
+        grid: &GridNodes<D>,
+        velocity_old: Option<&[Vector<D>]>,
+        xp: &Vector<D>,
+    ) -> Gathered<D> {
+        let rows = match (self.kernel, self.kernel.mls_inertia_inv(self.spec.dx)) {
+            (Kernel::Quadratic, Some(minv)) => self.gather_rows::<3>(grid, velocity_old, minv, xp),
+            (Kernel::Cubic, Some(minv)) => self.gather_rows::<4>(grid, velocity_old, minv, xp),
+            _ => None,
+        };
+        rows.unwrap_or_else(|| self.gather_nodes(grid, velocity_old, xp))
+    }
+
+    fn particle(
+        &self,
+        particles: &Particles<D>,
+        grid: &GridNodes<D>,
+        velocity_old: Option<&[Vector<D>]>,
+        p: usize,
+        old: &Old<D>,
+        dt: Real,
+    ) -> (Update<D>, Option<(Violation, Real)>) {
+        let spec = self.spec;
+        let xp = old.x;
+        let (v_pic, dv, c) = self.gather(grid, velocity_old, &xp);
         let mut v = match self.transfer {
-            Transfer::Flip { blend } => (particles.v[p] + dv) * blend + v_pic * (1.0 - blend),
+            Transfer::Flip { blend } => (old.v + dv) * blend + v_pic * (1.0 - blend),
             Transfer::Apic | Transfer::Pic => v_pic,
         };
         if let Some(sw) = self.soft_walls {
@@ -139,31 +397,27 @@ where
             x: xp + v * dt,
             v,
             c,
-            ..Update::default()
+            f: old.f,
+            j: old.j,
+            plastic: old.plastic.unwrap_or_default(),
         };
         let material = self.materials.get(particles, p);
         let grad_step = Matrix::<D>::identity() + c * dt;
         match material.as_ref() {
             Material::Solid(s) => {
-                let f_trial = grad_step * particles.def_grad_of(p);
-                u.f = match &particles.plastic {
-                    Some(states) => {
-                        u.plastic = states[p];
-                        s.return_mapping(&f_trial, &mut u.plastic)
-                    }
+                let f_trial = grad_step * old.f;
+                u.f = match old.plastic {
+                    Some(_) => s.return_mapping(&f_trial, &mut u.plastic),
                     None => f_trial,
                 };
                 u.j = Dim::<D>::det(&u.f);
             }
             Material::Fluid(_) => {
-                u.j = (1.0 + dt * c.trace()) * particles.jacobian_of(p);
-                if let Some(f) = &particles.def_grad {
-                    u.f = f[p];
-                }
+                u.j = (1.0 + dt * c.trace()) * old.j;
             }
         }
-        u.fault = check(spec, self.kernel, &material, &u, dt);
-        u
+        let fault = check(spec, self.kernel, &material, &u, dt);
+        (u, fault)
     }
 
     /// The multi-grid particle state after the step: volume fraction φ_p (Eqs. 19–20) and the
@@ -338,40 +592,4 @@ pub(crate) fn commit_extra<const D: usize>(
             particles.volume0[p] = particles.mass[p] / rho;
         }
     }
-}
-
-/// Writes the accepted updates into the particle columns.
-pub(crate) fn commit<const D: usize>(particles: &mut Particles<D>, updates: &[Update<D>]) {
-    let Particles {
-        x,
-        v,
-        affine,
-        def_grad,
-        jacobian,
-        plastic,
-        ..
-    } = particles;
-    rayon::join(
-        || {
-            x.par_iter_mut().zip(updates).for_each(|(x, u)| *x = u.x);
-            v.par_iter_mut().zip(updates).for_each(|(v, u)| *v = u.v);
-        },
-        || {
-            affine
-                .par_iter_mut()
-                .zip(updates)
-                .for_each(|(c, u)| *c = u.c);
-            if let Some(f) = def_grad {
-                f.par_iter_mut().zip(updates).for_each(|(f, u)| *f = u.f);
-            }
-            if let Some(j) = jacobian {
-                j.par_iter_mut().zip(updates).for_each(|(j, u)| *j = u.j);
-            }
-            if let Some(s) = plastic {
-                s.par_iter_mut()
-                    .zip(updates)
-                    .for_each(|(s, u)| *s = u.plastic);
-            }
-        },
-    );
 }

@@ -5,7 +5,8 @@ use crate::blocks::{Blocks, Sums};
 use crate::materials::MaterialView;
 use crate::params::{BodyForce, Transfer};
 use mpm_core::{
-    Dim, DimOps, GridNodes, GridSpec, Kernel, Material, Matrix, Particles, Real, Stencil, Vector,
+    AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Material, Matrix, Particles, Real,
+    Stencil, Vector,
 };
 
 /// Kirchhoff stress τ = J σ (Pa) of particle `p` with material table entry `materials[..]`.
@@ -50,63 +51,140 @@ pub(crate) fn mls_gradient<const D: usize>(
     }
 }
 
-/// Scatters mass and momentum (with the MLS stress impulse and the body-force impulse of the
-/// step from `t` to `t + dt`) to `grid`. `momentum0`, when given (FLIP, damping), receives the
-/// momentum transferred without forces: `Σ w m v`, plus the affine part `Σ w m C d` under APIC.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn p2g<const D: usize>(
-    spec: &GridSpec<D>,
-    kernel: Kernel,
-    transfer: Transfer,
-    particles: &Particles<D>,
-    materials: &MaterialView<'_>,
-    blocks: &mut Blocks<D>,
-    grid: &mut GridNodes<D>,
-    momentum0: Option<&mut Vec<Vector<D>>>,
-    body_force: Option<&BodyForce<D>>,
-    (t, dt): (Real, Real),
-) where
+/// What P2G reads besides the particles' binning and the grid.
+pub(crate) struct P2gInputs<'a, const D: usize> {
+    pub spec: &'a GridSpec<D>,
+    pub kernel: Kernel,
+    pub transfer: Transfer,
+    pub particles: &'a Particles<D>,
+    pub materials: &'a MaterialView<'a>,
+    pub body_force: Option<&'a BodyForce<D>>,
+    /// Start time `t` (s) and length `dt` (s) of the step.
+    pub step: (Real, Real),
+}
+
+/// What one particle scatters.
+struct Impulse<const D: usize> {
+    /// Mass m (kg).
+    m: Real,
+    /// Momentum m v (kg·m/s).
+    mv: Vector<D>,
+    /// Momentum with the body-force impulse of the step (kg·m/s).
+    mv_forced: Vector<D>,
+    /// APIC affine momentum m C (kg/s); zero for the other transfers.
+    affine: Matrix<D>,
+    /// Stress impulse `−Δt V⁰ τ` (N·m·s in 3D).
+    stress: Matrix<D>,
+}
+
+impl<const D: usize> P2gInputs<'_, D>
+where
     Dim<D>: DimOps<D>,
 {
-    let minv = kernel.mls_inertia_inv(spec.dx);
-    let apic = matches!(transfer, Transfer::Apic);
-    let with0 = momentum0.is_some();
-    // The grid update overwrites every velocity; only the length matters here.
-    grid.velocity.resize(spec.num_nodes(), Vector::<D>::zeros());
-    let out = Sums {
-        mass: &mut grid.mass,
-        momentum: Some(&mut grid.momentum),
-        momentum0,
-        extra: None,
-    };
-    blocks.scatter(out, |p, window, (mass, momentum, momentum0, _)| {
-        let (xp, vp, m) = (particles.x[p], particles.v[p], particles.mass[p]);
-        let stress =
-            stress(particles, &materials.get(particles, p), p) * (-dt * particles.volume0[p]);
-        let affine = if apic {
-            particles.affine[p] * m
-        } else {
-            Matrix::<D>::zeros()
+    #[inline]
+    fn impulse(&self, p: usize) -> Impulse<D> {
+        let ps = self.particles;
+        let (t, dt) = self.step;
+        let m = ps.mass[p];
+        let stress = stress(ps, &self.materials.get(ps, p), p) * (-dt * ps.volume0[p]);
+        let affine = match self.transfer {
+            Transfer::Apic => ps.affine[p] * m,
+            Transfer::Pic | Transfer::Flip { .. } => Matrix::<D>::zeros(),
         };
-        let mut mv = vp * m;
-        if let Some(b) = body_force {
-            mv += (b.0)(p, &xp, t) * (m * dt);
+        let mv = ps.v[p] * m;
+        let mv_forced = match self.body_force {
+            Some(b) => mv + (b.0)(p, &ps.x[p], t) * (m * dt),
+            None => mv,
+        };
+        Impulse {
+            m,
+            mv,
+            mv_forced,
+            affine,
+            stress,
         }
-        Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
-            let d = spec.node_position(&node) - xp;
-            let g = mls_gradient(minv, w, &grad, &d);
-            let k = window.local(&node);
-            mass[k] += w * m;
-            momentum[k] += (mv + affine * d) * w + stress * g;
-            if with0 {
-                momentum0[k] += if apic {
-                    (vp * m + affine * d) * w
-                } else {
-                    vp * (m * w)
-                };
-            }
+    }
+
+    /// Scatters mass and momentum (with the MLS stress impulse and the body-force impulse of the
+    /// step) to `grid`. `momentum0`, when given (FLIP, damping), receives the momentum
+    /// transferred without forces: `Σ w m v`, plus the affine part `Σ w m C d` under APIC.
+    pub fn p2g(
+        &self,
+        blocks: &mut Blocks<D>,
+        grid: &mut GridNodes<D>,
+        momentum0: Option<&mut Vec<Vector<D>>>,
+    ) {
+        // The grid update overwrites every velocity; only the length matters here.
+        grid.velocity
+            .resize(self.spec.num_nodes(), Vector::<D>::zeros());
+        let out = Sums {
+            mass: &mut grid.mass,
+            momentum: Some(&mut grid.momentum),
+            momentum0,
+            extra: None,
+        };
+        match (self.kernel, self.kernel.mls_inertia_inv(self.spec.dx)) {
+            (Kernel::Quadratic, Some(minv)) => self.p2g_rows::<3>(blocks, out, minv),
+            (Kernel::Cubic, Some(minv)) => self.p2g_rows::<4>(blocks, out, minv),
+            _ => self.p2g_nodes(blocks, out),
+        }
+    }
+
+    /// P2G for the quadratic and cubic kernels: with `g = w M⁻¹ d` the stress and affine terms
+    /// fuse into one matrix `Q = m C − Δt V⁰ M⁻¹ τ` (multigrid paper Eq. 7), and each node
+    /// receives `w (m v + Q d)`; the stencil is walked by rows along the first axis, whose
+    /// nodes are consecutive in the block buffer.
+    fn p2g_rows<const S: usize>(&self, blocks: &mut Blocks<D>, out: Sums<'_, D>, minv: Real) {
+        let with0 = out.momentum0.is_some();
+        blocks.scatter(out, |p, window, (mass, momentum, momentum0, _)| {
+            let im = self.impulse(p);
+            let q = im.affine + im.stress * minv;
+            let st = AxisStencil::<D, S>::new(self.kernel, self.spec, &self.particles.x[p]);
+            st.for_each_row(|o, wr, dr| {
+                let mut node = st.base;
+                for a in 1..D {
+                    node[a] += o[a] as i64;
+                }
+                let k0 = window.local(&node);
+                let row = im.mv_forced + q * dr;
+                let (mass, momentum) = (&mut mass[k0..k0 + S], &mut momentum[k0..k0 + S]);
+                for i in 0..S {
+                    let (w, d0) = (st.w[0][i] * wr, st.d[0][i]);
+                    mass[i] += w * im.m;
+                    momentum[i] += (row + q.column(0) * d0) * w;
+                }
+                if with0 {
+                    let row0 = im.mv + im.affine * dr;
+                    for i in 0..S {
+                        let (w, d0) = (st.w[0][i] * wr, st.d[0][i]);
+                        momentum0[k0 + i] += (row0 + im.affine.column(0) * d0) * w;
+                    }
+                }
+            });
         });
-    });
+    }
+
+    /// P2G over the general stencil: the linear kernel, whose MLS gradient is the kernel
+    /// gradient.
+    fn p2g_nodes(&self, blocks: &mut Blocks<D>, out: Sums<'_, D>) {
+        let (spec, kernel) = (self.spec, self.kernel);
+        let minv = kernel.mls_inertia_inv(spec.dx);
+        let with0 = out.momentum0.is_some();
+        blocks.scatter(out, |p, window, (mass, momentum, momentum0, _)| {
+            let im = self.impulse(p);
+            let xp = self.particles.x[p];
+            Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
+                let d = spec.node_position(&node) - xp;
+                let g = mls_gradient(minv, w, &grad, &d);
+                let k = window.local(&node);
+                mass[k] += w * im.m;
+                momentum[k] += (im.mv_forced + im.affine * d) * w + im.stress * g;
+                if with0 {
+                    momentum0[k] += (im.mv + im.affine * d) * w;
+                }
+            });
+        });
+    }
 }
 
 /// Scatters particle masses only (for volume re-estimation).

@@ -6,7 +6,7 @@ use crate::multigrid::{CouplingKind, DiffusionScheme, PressureBuoyancy};
 use crate::params::{Transfer, VolumeUpdate};
 use crate::solver::ExplicitSolver;
 use mpm_core::boundary::Boundaries;
-use mpm_core::{Dim, DimOps, Material, Stage, StagePlan};
+use mpm_core::{Dim, DimOps, Material, OnInstability, Stage, StagePlan};
 
 /// The stages a step of `solver` runs, in order, with the phases and couplings they involve;
 /// stages the scene does not need are left out (DESIGN §5). Decided once, in
@@ -146,8 +146,17 @@ where
             d.solid, d.into, d.rate
         );
     }
+    g2p += "; written in place";
+    if matches!(p.on_instability, OnInstability::Retry { .. }) {
+        g2p += " (x, v, C, F/J and plastic state saved before each attempt for dt/2 retries)";
+    }
     plan.push(Stage::G2P, g2p);
-    plan.push(Stage::Commit, "write checked updates");
+    if solver.has_extra_state() {
+        plan.push(
+            Stage::Commit,
+            "write the checked volume fractions, concentrations and dissolution",
+        );
+    }
     plan
 }
 

@@ -2,7 +2,7 @@
 
 use crate::blocks::Blocks;
 use crate::coupling::{self, GeometryNeeds, PhaseGeometry};
-use crate::g2p::{self, Extra, ExtraContext, G2pContext, Update};
+use crate::g2p::{self, Extra, ExtraContext, G2pContext, Moving};
 use crate::grid_update::{self, NodeForces};
 use crate::materials::MaterialView;
 use crate::mixing::{self, MixingWork};
@@ -16,8 +16,8 @@ use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::volume::density_at;
 use mpm_core::{
     columns, retry_halving, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec, Instability,
-    Location, Material, Particles, Real, SetupError, Solver, SolverState, Stage, StagePlan,
-    StageTimes, StepError, StepInfo, StepStart, TimeStepPolicy, Vector, Violation,
+    Location, Material, OnInstability, Particles, Real, SetupError, Solver, SolverState, Stage,
+    StagePlan, StageTimes, StepError, StepInfo, StepStart, TimeStepPolicy, Vector, Violation,
 };
 use rayon::prelude::*;
 use std::convert::Infallible;
@@ -27,7 +27,8 @@ use std::time::Instant;
 /// Scratch memory of a solver's workspace (bytes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ScratchBytes {
-    /// Arrays with one entry per particle: block binning and the G2P result buffer.
+    /// Arrays with one entry per particle: block binning, the multi-grid state gathered by G2P
+    /// and, when the policy retries steps, the saved copy of the columns G2P rewrites.
     pub particles: usize,
     /// Arrays that scale with the grid: dense nodes, FLIP velocities, block counts and buffers.
     pub grid: usize,
@@ -40,7 +41,8 @@ struct Workspace<const D: usize> {
     grids: Vec<GridNodes<D>>,
     velocity_old: Vec<Vec<Vector<D>>>,
     geometry: Vec<PhaseGeometry<D>>,
-    updates: Vec<Update<D>>,
+    /// The columns G2P rewrites, saved before each attempt when the policy retries steps.
+    backup: Moving<D>,
     extras: Vec<Extra>,
     mixing: MixingWork<D>,
 }
@@ -186,7 +188,7 @@ where
     }
 
     /// Whether G2P computes multi-grid particle state (φ_eff, concentration, dissolution).
-    fn has_extra_state(&self) -> bool {
+    pub(crate) fn has_extra_state(&self) -> bool {
         self.params.porous.is_some()
             || self.params.mixing.is_some()
             || self.params.dissolution.is_some()
@@ -194,7 +196,10 @@ where
 
     /// Advances one step. On a failed guard check the step is retried with dt/2 when the policy
     /// allows it; otherwise an [`Instability`] names the step, stage, particle or node and value.
-    /// A failed step leaves the particle state untouched. (The same as [`Solver::step`], with
+    /// G2P writes the particles in place, so after a failed step under
+    /// [`OnInstability::Abort`] they hold the failed step's partial result (time and the step
+    /// count do not advance); under [`OnInstability::Retry`] the saved state is put back before
+    /// each retry. (The same as [`Solver::step`], with
     /// the error type narrowed: this solver has no iterative solve that could fail.)
     pub fn step(&mut self) -> Result<StepInfo, Instability> {
         self.advance_step().map_err(|e| match e {
@@ -237,8 +242,23 @@ where
         choose_dt(&self.params.time_step, stable)
     }
 
-    /// One attempt at a step of size `dt`: the stage plan.
+    /// One attempt at a step of size `dt`: the stage plan. G2P updates the particles in place;
+    /// when the policy retries failed steps, their moving columns are saved first and put back
+    /// on failure, so a retry starts from the same state.
     fn attempt(&mut self, dt: Real) -> Result<(), Failure<Infallible>> {
+        let retries = matches!(self.params.on_instability, OnInstability::Retry { .. });
+        if retries {
+            self.ws.backup.save(&self.particles);
+        }
+        let r = self.stages(dt);
+        if r.is_err() && retries {
+            self.ws.backup.restore(&mut self.particles);
+        }
+        r
+    }
+
+    /// The stages of one attempt at a step of size `dt`.
+    fn stages(&mut self, dt: Real) -> Result<(), Failure<Infallible>> {
         self.sort_particles();
         if self.params.volume == VolumeUpdate::Reestimate {
             self.reestimate_volumes();
@@ -255,7 +275,9 @@ where
         }
         self.grid_to_particle(dt)
             .map_err(Failure::guard(Stage::G2P))?;
-        self.commit();
+        if self.has_extra_state() {
+            self.commit_extra();
+        }
         Ok(())
     }
 
@@ -371,6 +393,15 @@ where
         let t = Instant::now();
         let with0 = self.needs_momentum0();
         let view = material_view(&self.materials, &self.params);
+        let inputs = p2g::P2gInputs {
+            spec: &self.spec,
+            kernel: self.params.kernel,
+            transfer: self.params.transfer,
+            particles: &self.particles,
+            materials: &view,
+            body_force: self.params.body_force.as_ref(),
+            step: (self.time, dt),
+        };
         let ws = &mut self.ws;
         for ((blocks, grid), v0) in ws
             .blocks
@@ -378,18 +409,7 @@ where
             .zip(ws.grids.iter_mut())
             .zip(ws.velocity_old.iter_mut())
         {
-            p2g::p2g(
-                &self.spec,
-                self.params.kernel,
-                self.params.transfer,
-                &self.particles,
-                &view,
-                blocks,
-                grid,
-                with0.then_some(v0),
-                self.params.body_force.as_ref(),
-                (self.time, dt),
-            );
+            inputs.p2g(blocks, grid, with0.then_some(v0));
         }
         self.stats.add(Stage::P2G, t.elapsed());
     }
@@ -470,7 +490,8 @@ where
         r
     }
 
-    /// Stage: G2P into scratch storage with guard checks (particles are not modified).
+    /// Stage: G2P with guard checks, writing the particles in place. The multi-grid particle
+    /// state is gathered first, from the positions at the start of the step, into scratch.
     fn grid_to_particle(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
         let t = Instant::now();
         let flip = matches!(self.params.transfer, Transfer::Flip { .. });
@@ -481,14 +502,7 @@ where
             materials: material_view(&self.materials, &self.params),
             soft_walls: self.params.soft_walls,
         };
-        let r = ctx.gather(
-            &self.particles,
-            &self.ws.grids,
-            flip.then_some(self.ws.velocity_old.as_slice()),
-            &mut self.ws.updates,
-            dt,
-        );
-        if r.is_ok() && self.has_extra_state() {
+        if self.has_extra_state() {
             let mixing_ran = self.params.mixing.is_some();
             let extra = ExtraContext {
                 porous: self.params.porous.as_ref(),
@@ -504,23 +518,27 @@ where
                 dt,
             );
         }
+        let r = ctx.advance(
+            &mut self.particles,
+            &self.ws.grids,
+            flip.then_some(self.ws.velocity_old.as_slice()),
+            dt,
+        );
         self.stats.add(Stage::G2P, t.elapsed());
         r
     }
 
-    /// Stage: writes the checked G2P results into the particles.
-    fn commit(&mut self) {
+    /// Stage (multi-grid state only): writes the gathered volume fractions, concentrations and
+    /// dissolution into the particles once G2P has passed its checks.
+    fn commit_extra(&mut self) {
         let t = Instant::now();
-        g2p::commit(&mut self.particles, &self.ws.updates);
-        if self.has_extra_state() {
-            g2p::commit_extra(
-                &mut self.particles,
-                &self.ws.extras,
-                &self.materials,
-                self.params.mixing.as_ref(),
-                self.params.dissolution.as_ref(),
-            );
-        }
+        g2p::commit_extra(
+            &mut self.particles,
+            &self.ws.extras,
+            &self.materials,
+            self.params.mixing.as_ref(),
+            self.params.dissolution.as_ref(),
+        );
         self.stats.add(Stage::Commit, t.elapsed());
     }
 
@@ -591,8 +609,7 @@ where
         let ws = &self.ws;
         let vec = std::mem::size_of::<Vector<D>>();
         let mut bytes = ScratchBytes {
-            particles: ws.updates.len() * std::mem::size_of::<Update<D>>()
-                + ws.extras.len() * std::mem::size_of::<Extra>(),
+            particles: ws.backup.bytes() + ws.extras.len() * std::mem::size_of::<Extra>(),
             grid: ws.mixing.bytes(),
         };
         for k in 0..self.phase_count() {
@@ -648,11 +665,13 @@ impl<const D: usize> PreparedG2p<'_, D>
 where
     Dim<D>: DimOps<D>,
 {
-    /// G2P with its guard checks, then the commit; the particles are unchanged when a check
-    /// fails. Time and the step count do not advance.
+    /// G2P in place with its guard checks, then the multi-grid state; when a check fails the
+    /// particles hold the partial result. Time and the step count do not advance.
     pub fn run(self) -> Result<(), (Location, Violation, Real)> {
         self.solver.grid_to_particle(self.dt)?;
-        self.solver.commit();
+        if self.solver.has_extra_state() {
+            self.solver.commit_extra();
+        }
         Ok(())
     }
 }

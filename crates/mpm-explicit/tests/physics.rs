@@ -279,7 +279,7 @@ fn serial_and_parallel_steps_are_bitwise_equal() {
 /// particles, and succeeds after one dt/2 retry under the retry policy.
 #[test]
 fn instability_abort_and_retry() {
-    let build = |policy| {
+    let build = |policy, step: Real| {
         let spec = spec::<2>(33);
         let materials = vec![jelly(1e4, 0.3, 1000.0)];
         let mut particles = particles_for::<2>(&materials);
@@ -296,29 +296,32 @@ fn instability_abort_and_retry() {
             |_| (Vector::<2>::new(v, 0.0), Matrix::<2>::zeros()),
         );
         let params = ExplicitParams {
-            time_step: TimeStepPolicy::Fixed { dt },
+            time_step: TimeStepPolicy::Fixed { dt: step },
             on_instability: policy,
             ..ExplicitParams::default()
         };
         ExplicitSolver::new(spec, params, materials, Boundaries::default(), particles).unwrap()
     };
-    let mut s = build(OnInstability::Abort);
-    let before = s.particles().clone();
+    let mut s = build(OnInstability::Abort, 1e-3);
     let err = s.step().unwrap_err();
     assert_eq!(err.stage, Stage::G2P);
     assert_eq!(err.violation, Violation::CflExceeded);
     assert!(matches!(err.location, mpm_core::Location::Particle(_)));
     assert_eq!(err.step, 0);
-    assert!(
-        *s.particles() == before,
-        "a failed step must leave particles untouched"
-    );
+    assert_eq!(s.steps(), 0);
     assert!(err.to_string().contains("step 0") && err.to_string().contains("g2p"));
 
-    let mut s = build(OnInstability::Retry { max_retries: 3 });
+    // A retry starts from the saved state: the retried step is bitwise the step of dt/2.
+    let mut s = build(OnInstability::Retry { max_retries: 3 }, 1e-3);
     let info = s.step().unwrap();
     assert_eq!(info.retries, 1);
     assert_relative_eq!(info.dt, 5e-4);
+    let mut half = build(OnInstability::Abort, 5e-4);
+    half.step().unwrap();
+    assert!(
+        *s.particles() == *half.particles(),
+        "the retried step must start from the state before the failed attempt"
+    );
 }
 
 /// Per-step volume re-estimation keeps a fluid at rest at J = 1 in its interior.

@@ -94,6 +94,26 @@ impl ElasticModel {
         }
     }
 
+    /// Kirchhoff stress `τ = P(F) Fᵀ` (Pa). For the Neo-Hookean model this is
+    /// `μ (F Fᵀ − I) + λ ln J I`, which needs no inverse of F (`F⁻ᵀ Fᵀ = I`); the other models
+    /// form `P Fᵀ`.
+    pub fn kirchhoff<const D: usize>(&self, f: &Matrix<D>) -> Matrix<D>
+    where
+        Dim<D>: DimOps<D>,
+    {
+        match self {
+            Self::NeoHookean(Lame { mu, lambda }) => {
+                let log_j = Dim::<D>::det(f).ln();
+                let mut tau = f * f.transpose() * *mu;
+                for a in 0..D {
+                    tau[(a, a)] += lambda * log_j - mu;
+                }
+                tau
+            }
+            _ => self.pk1(f) * f.transpose(),
+        }
+    }
+
     /// Whether ψ, P and dP are finite for J ≤ 0.
     pub fn defined_for_inverted(&self) -> bool {
         matches!(
@@ -384,6 +404,13 @@ mod tests {
             (model.psi(&(f + e)) - model.psi(&(f - e))) / (2.0 * h)
         });
         assert_close(&model.pk1(f), &grad, 1e-6, mu);
+        // The Kirchhoff stress is P Fᵀ (the Neo-Hookean closed form included).
+        assert_close(
+            &model.kirchhoff(f),
+            &(model.pk1(f) * f.transpose()),
+            1e-13,
+            mu,
+        );
         let df = rng.matrix::<D>(1.0);
         let fd = (model.pk1(&(f + df * h)) - model.pk1(&(f - df * h))) / (2.0 * h);
         assert_close(&model.dpk1(f, &df), &fd, 1e-6, mu * df.norm());

@@ -83,8 +83,7 @@ impl SolidMaterial {
     where
         Dim<D>: DimOps<D>,
     {
-        let model = self.hardened(state);
-        model.pk1(f) * f.transpose()
+        self.hardened(state).kirchhoff(f)
     }
 
     /// Elastic energy density ψ(F) (J/m^D) with hardening applied.
