@@ -65,6 +65,50 @@ impl Kernel {
         floor(xh - self.lower_margin()) as i64
     }
 
+    /// First node index and weights of the 1D stencil at grid-unit coordinate `xh`, for a kernel
+    /// of `S` nodes per axis: the weights of [`Kernel::weights_1d`] (the same expressions),
+    /// without the derivatives, inlined into the hot transfers.
+    ///
+    /// # Panics
+    /// In debug builds, when `S != self.support()`.
+    #[inline(always)]
+    pub fn weights<const S: usize>(self, xh: Real) -> (i64, [Real; S]) {
+        debug_assert_eq!(S, self.support());
+        let mut w = [0.0; S];
+        let base = match self {
+            Kernel::Linear => {
+                let base = floor(xh);
+                let fx = xh - base;
+                w[0] = 1.0 - fx;
+                w[1] = fx;
+                base
+            }
+            Kernel::Quadratic => {
+                let base = floor(xh - 0.5);
+                let fx = xh - base;
+                w[0] = 0.5 * (1.5 - fx) * (1.5 - fx);
+                w[1] = 0.75 - (fx - 1.0) * (fx - 1.0);
+                w[2] = 0.5 * (fx - 0.5) * (fx - 0.5);
+                base
+            }
+            Kernel::Cubic => {
+                let base = floor(xh) - 1.0;
+                let fx = xh - base;
+                for (k, wk) in w.iter_mut().enumerate() {
+                    let a = (fx - k as Real).abs();
+                    *wk = if a < 1.0 {
+                        0.5 * a * a * a - a * a + 2.0 / 3.0
+                    } else {
+                        let t = 2.0 - a;
+                        t * t * t / 6.0
+                    };
+                }
+                base
+            }
+        };
+        (base as i64, w)
+    }
+
     /// 1D stencil at grid-unit coordinate `xh`: first node index, weights, and derivatives of
     /// the weights with respect to `xh` (multiply by `1/Δx` for spatial gradients).
     pub fn weights_1d(self, xh: Real) -> (i64, [Real; MAX_SUPPORT], [Real; MAX_SUPPORT]) {
@@ -247,7 +291,7 @@ impl<const D: usize, const S: usize> AxisStencil<D, S> {
             d: [[0.0; S]; D],
         };
         for a in 0..D {
-            let (b, w, _) = kernel.weights_1d((x[a] - spec.origin[a]) * inv_dx);
+            let (b, w) = kernel.weights::<S>((x[a] - spec.origin[a]) * inv_dx);
             st.base[a] = b;
             for o in 0..S {
                 st.w[a][o] = w[o];
@@ -380,6 +424,26 @@ mod tests {
                 }
             });
             assert_eq!(k, S.pow(D as u32));
+        }
+    }
+
+    #[test]
+    fn weights_are_bitwise_those_of_weights_1d() {
+        for k in 0..2000 {
+            let xh = -3.0 + 0.00731 * k as Real;
+            let check = |kernel: Kernel, b: i64, w: &[Real]| {
+                let (b1, w1, _) = kernel.weights_1d(xh);
+                assert_eq!(b, b1);
+                for (o, wo) in w.iter().enumerate() {
+                    assert_eq!(wo.to_bits(), w1[o].to_bits(), "{kernel:?} at {xh}");
+                }
+            };
+            let (b, w) = Kernel::Linear.weights::<2>(xh);
+            check(Kernel::Linear, b, &w);
+            let (b, w) = Kernel::Quadratic.weights::<3>(xh);
+            check(Kernel::Quadratic, b, &w);
+            let (b, w) = Kernel::Cubic.weights::<4>(xh);
+            check(Kernel::Cubic, b, &w);
         }
     }
 
