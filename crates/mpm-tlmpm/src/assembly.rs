@@ -31,6 +31,10 @@ pub(crate) fn hessian_pattern<const D: usize>(
     })
 }
 
+/// Entries of the block-position table of [`assemble`]: `(2S − 1)^D` for the widest stencil,
+/// the cubic kernel (S = 4) in 3D.
+const MAX_TABLE: usize = 343;
+
 /// Refills `matrix` (on [`hessian_pattern`]) with the lower triangle of `M/Δt² + K` from the
 /// per-particle tensors. Each equation node's columns are gathered by one task, particles in
 /// ascending order, so the values do not depend on the thread count.
@@ -45,9 +49,28 @@ pub(crate) fn assemble<const D: usize>(
     let (reference, constraints) = (pot.reference, pot.constraints);
     let dofs = &constraints.dofs;
     let masses = reference.node_masses();
+    let spec = reference.spec();
+    // A node coupled to j lies within S − 1 nodes of it along every axis (they share a
+    // particle's stencil of S nodes per axis), so a column's blocks are found by their grid
+    // offset from j in a table of (2S − 1)^D entries instead of a search per contribution.
+    let support = reference.kernel().support();
+    let span = 2 * support - 1;
+    let stencil: Vec<[usize; D]> = (0..support.pow(D as u32))
+        .map(|s| std::array::from_fn(|a| s / support.pow(a as u32) % support))
+        .collect();
     matrix.refill_block_columns(|column| {
         let e = column.block();
         let j = dofs.node(e);
+        let node_j = spec.multi_index(reference.grid_index(j));
+        let mut position = [u16::MAX; MAX_TABLE];
+        for k in 0..column.num_blocks() {
+            let node_i = spec.multi_index(reference.grid_index(dofs.node(column.block_row(k))));
+            let mut idx = 0;
+            for a in (0..D).rev() {
+                idx = idx * span + (node_i[a] - node_j[a] + support as i64 - 1) as usize;
+            }
+            position[idx] = k as u16;
+        }
         for &(p, kj) in reference.incidence(j) {
             let (p, kj) = (p as usize, kj as usize);
             let a = &tensors[p * tensor_len(D)..(p + 1) * tensor_len(D)];
@@ -60,14 +83,21 @@ pub(crate) fn assemble<const D: usize>(
                 }
             }
             let (nodes, _, grads) = reference.slots(p);
-            for (&i, gi) in nodes.iter().zip(grads) {
+            for (s, (&i, gi)) in nodes.iter().zip(grads).enumerate() {
                 if i == NONE {
                     continue;
                 }
-                // Position of node i's block in e's column (0 for e itself), if at or below it.
-                let Some(k) = dofs.unknown(i as usize).and_then(|ei| column.position(ei)) else {
+                // Position of node i's block in e's column (0 for e itself), if it has
+                // equations and lies at or below e.
+                let mut idx = 0;
+                for a in (0..D).rev() {
+                    idx = idx * span + stencil[s][a] + support - 1 - stencil[kj][a];
+                }
+                let k = position[idx];
+                if k == u16::MAX {
                     continue;
-                };
+                }
+                let k = k as usize;
                 for b in (0..D).filter(|&b| constraints.is_free(j, b)) {
                     for a in 0..D {
                         if (k == 0 && a < b) || !constraints.is_free(i as usize, a) {
