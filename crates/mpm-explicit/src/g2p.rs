@@ -16,6 +16,7 @@ use crate::multigrid::{Dissolution, Mixing, Porous};
 use crate::p2g::mls_gradient;
 use crate::params::{SoftWalls, Transfer};
 use mpm_core::material::PlasticState;
+use mpm_core::solver::nan_max;
 use mpm_core::{
     AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Location, Material, Matrix, Particles,
     Real, Stencil, Vector, Violation,
@@ -209,6 +210,9 @@ pub(crate) struct G2pContext<'a, const D: usize> {
     pub transfer: Transfer,
     pub materials: MaterialView<'a>,
     pub soft_walls: Option<SoftWalls>,
+    /// Whether to return the largest signal speed `max_p(|v_p| + c_p)` of the new state, for
+    /// the next step's adaptive dt.
+    pub signal_speed: bool,
 }
 
 /// The multi-grid state of one particle after the step, before commit.
@@ -239,39 +243,49 @@ where
     Dim<D>: DimOps<D>,
 {
     /// Gathers from the grid and writes every particle's new state in place, with the guard
-    /// checks. Returns the first (lowest-index) failing particle; the particles then hold the
-    /// step's partial result. `grids` and, with FLIP, `velocity_old` have one entry per phase.
+    /// checks. Returns the largest signal speed `max_p(|v_p| + c_p)` (m/s) of the new state
+    /// when [`Self::signal_speed`] is set (0 otherwise), or the first (lowest-index) failing
+    /// particle; the particles then hold the step's partial result. `grids` and, with FLIP,
+    /// `velocity_old` have one entry per phase.
     pub fn advance(
         &self,
         particles: &mut Particles<D>,
         grids: &[GridNodes<D>],
         velocity_old: Option<&[Vec<Vector<D>>]>,
         dt: Real,
-    ) -> Result<(), (Location, Violation, Real)> {
+    ) -> Result<Real, (Location, Violation, Real)> {
+        type Fault = Option<(usize, Violation, Real)>;
+        fn first(a: Fault, b: Fault) -> Fault {
+            match (a, b) {
+                (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+                (a, b) => a.or(b),
+            }
+        }
         let mut moving = Moving::take(particles);
         let fixed: &Particles<D> = particles;
-        let fault = moving
+        let (fault, signal) = moving
             .chunks(CHUNK)
             .into_par_iter()
-            .filter_map(|mut chunk| {
-                let mut first = None;
+            .map(|mut chunk| {
+                let (mut fault, mut signal) = (None, 0.0);
                 for i in 0..chunk.x.len() {
                     let p = chunk.start + i;
                     let k = fixed.phase_of(p) as usize;
                     let v0 = velocity_old.map(|v| v[k].as_slice());
-                    let (u, fault) = self.particle(fixed, &grids[k], v0, p, &chunk.old(i), dt);
+                    let (u, check, c) = self.particle(fixed, &grids[k], v0, p, &chunk.old(i), dt);
                     chunk.write(i, &u);
-                    if first.is_none() {
-                        first = fault.map(|(violation, value)| (p, violation, value));
+                    signal = nan_max(signal, c);
+                    if fault.is_none() {
+                        fault = check.map(|(violation, value)| (p, violation, value));
                     }
                 }
-                first
+                (fault, signal)
             })
-            .min_by_key(|f| f.0);
+            .reduce(|| (None, 0.0), |a, b| (first(a.0, b.0), nan_max(a.1, b.1)));
         moving.put_back(particles);
         match fault {
             Some((p, violation, value)) => Err((Location::Particle(p), violation, value)),
-            None => Ok(()),
+            None => Ok(signal),
         }
     }
 
@@ -382,7 +396,7 @@ where
         p: usize,
         old: &Old<D>,
         dt: Real,
-    ) -> (Update<D>, Option<(Violation, Real)>) {
+    ) -> (Update<D>, Option<(Violation, Real)>, Real) {
         let spec = self.spec;
         let xp = old.x;
         let (v_pic, dv, c) = self.gather(grid, velocity_old, &xp);
@@ -417,7 +431,13 @@ where
             }
         }
         let fault = check(spec, self.kernel, &material, &u, dt);
-        (u, fault)
+        // The same expression as `ExplicitSolver::stable_dt` evaluates on the committed state.
+        let signal = match (self.signal_speed, material.as_ref()) {
+            (false, _) => 0.0,
+            (true, Material::Solid(s)) => u.v.norm() + s.wave_speed(u.j, &u.plastic),
+            (true, Material::Fluid(f)) => u.v.norm() + f.sound_speed(u.j),
+        };
+        (u, fault, signal)
     }
 
     /// The multi-grid particle state after the step: volume fraction φ_p (Eqs. 19–20) and the

@@ -76,6 +76,10 @@ pub struct ExplicitSolver<const D: usize> {
     steps: u64,
     stats: StageTimes,
     plan: StagePlan,
+    /// `max_p(|v_p| + c_p)` (m/s) of the current particles, kept by the last accepted step's
+    /// G2P for the next adaptive dt; `None` when it must be recomputed (fixed dt, multi-grid
+    /// particle state that changes materials after G2P, any other change of the particles).
+    signal: Option<Real>,
     geometry_needs: Vec<GeometryNeeds>,
     ws: Workspace<D>,
 }
@@ -107,6 +111,7 @@ where
             steps: 0,
             stats: StageTimes::default(),
             plan: StagePlan::default(),
+            signal: None,
         };
         s.plan = crate::plan::decide(&s, &s.geometry_needs);
         Ok(s)
@@ -237,7 +242,10 @@ where
         let stable = match self.params.time_step {
             // A fixed step does not use the bound; the guard checks still catch bad states.
             TimeStepPolicy::Fixed { .. } => Real::INFINITY,
-            TimeStepPolicy::Adaptive { .. } => self.stable_dt(),
+            TimeStepPolicy::Adaptive { .. } => match self.signal {
+                Some(signal) => self.stable_dt_for(signal),
+                None => self.stable_dt(),
+            },
         };
         choose_dt(&self.params.time_step, stable)
     }
@@ -247,6 +255,7 @@ where
     /// on failure, so a retry starts from the same state.
     fn attempt(&mut self, dt: Real) -> Result<(), Failure<Infallible>> {
         let retries = matches!(self.params.on_instability, OnInstability::Retry { .. });
+        self.signal = None;
         if retries {
             self.ws.backup.save(&self.particles);
         }
@@ -273,10 +282,13 @@ where
             self.couple_phases(dt)
                 .map_err(Failure::guard(Stage::Coupling))?;
         }
-        self.grid_to_particle(dt)
+        let signal = self
+            .grid_to_particle(dt)
             .map_err(Failure::guard(Stage::G2P))?;
         if self.has_extra_state() {
             self.commit_extra();
+        } else if matches!(self.params.time_step, TimeStepPolicy::Adaptive { .. }) {
+            self.signal = Some(signal);
         }
         Ok(())
     }
@@ -291,6 +303,7 @@ where
     /// Re-estimates fluid volumes (`J_p = m_p/(ρ_p V⁰_p)`) from the grid density at the current
     /// positions, as the volume stage of a step does with [`VolumeUpdate::Reestimate`].
     pub fn reestimate_volumes_now(&mut self) {
+        self.signal = None;
         self.sort_particles();
         self.reestimate_volumes();
     }
@@ -492,7 +505,8 @@ where
 
     /// Stage: G2P with guard checks, writing the particles in place. The multi-grid particle
     /// state is gathered first, from the positions at the start of the step, into scratch.
-    fn grid_to_particle(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
+    /// Returns the new state's largest signal speed (m/s) under an adaptive dt, else 0.
+    fn grid_to_particle(&mut self, dt: Real) -> Result<Real, (Location, Violation, Real)> {
         let t = Instant::now();
         let flip = matches!(self.params.transfer, Transfer::Flip { .. });
         let ctx = G2pContext {
@@ -501,6 +515,7 @@ where
             transfer: self.params.transfer,
             materials: material_view(&self.materials, &self.params),
             soft_walls: self.params.soft_walls,
+            signal_speed: matches!(self.params.time_step, TimeStepPolicy::Adaptive { .. }),
         };
         if self.has_extra_state() {
             let mixing_ran = self.params.mixing.is_some();
@@ -545,14 +560,19 @@ where
     /// The stable explicit step bound (s) for the current state, before `dt_max`:
     /// `min(C·Δx / max_p(|v_p| + c_p), Δx²/(2Dν))`. With a fixed dt, `C` is 1.
     pub fn stable_dt(&self) -> Real {
-        let cfl = match self.params.time_step {
-            TimeStepPolicy::Adaptive { cfl, .. } => cfl,
-            TimeStepPolicy::Fixed { .. } => 1.0,
-        };
         let max_signal = (0..self.particles.len())
             .into_par_iter()
             .map(|p| self.particles.v[p].norm() + self.wave_speed(p))
             .reduce(|| 0.0, nan_max);
+        self.stable_dt_for(max_signal)
+    }
+
+    /// [`Self::stable_dt`] for a given largest signal speed `max_p(|v_p| + c_p)` (m/s).
+    fn stable_dt_for(&self, max_signal: Real) -> Real {
+        let cfl = match self.params.time_step {
+            TimeStepPolicy::Adaptive { cfl, .. } => cfl,
+            TimeStepPolicy::Fixed { .. } => 1.0,
+        };
         stable_dt(cfl, self.spec.dx, max_signal, self.max_diffusivity(), D)
     }
 
@@ -668,6 +688,7 @@ where
     /// G2P in place with its guard checks, then the multi-grid state; when a check fails the
     /// particles hold the partial result. Time and the step count do not advance.
     pub fn run(self) -> Result<(), (Location, Violation, Real)> {
+        self.solver.signal = None;
         self.solver.grid_to_particle(self.dt)?;
         if self.solver.has_extra_state() {
             self.solver.commit_extra();

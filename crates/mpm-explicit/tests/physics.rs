@@ -442,3 +442,64 @@ fn output_fields_match_the_written_columns() {
     assert!(p.iter().all(|&p| p < 0.0 && p.is_finite()), "{:?}", &p[..3]);
     assert!(Solver::output(&s, "no_such_field").is_empty());
 }
+
+/// Under an adaptive dt the step uses the largest signal speed `max_p(|v_p| + c_p)` that the
+/// previous step's G2P kept: every dt equals, to the bit, the bound a scan of the particles
+/// gives before the step (`stable_dt`), while the jelly speeds up and hits the water.
+#[test]
+fn adaptive_dt_from_g2p_equals_the_particle_scan() {
+    let spec = spec::<2>(33);
+    let materials = vec![water(1e5, 1e-3), jelly(1e5, 0.3, 1200.0)];
+    let mut particles = particles_for::<2>(&materials);
+    let still = |_: &Vector<2>| (Vector::<2>::zeros(), Matrix::<2>::zeros());
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.1, 0.1), Vector::<2>::new(0.9, 0.3)),
+        2,
+        (0, 1000.0),
+        still,
+    );
+    fill_box(
+        &mut particles,
+        &spec,
+        (Vector::<2>::new(0.4, 0.45), Vector::<2>::new(0.6, 0.6)),
+        2,
+        (1, 1200.0),
+        |_| (Vector::<2>::new(0.0, -3.0), Matrix::<2>::zeros()),
+    );
+    let params = ExplicitParams {
+        gravity: Vector::<2>::new(0.0, -9.81),
+        time_step: TimeStepPolicy::Adaptive {
+            cfl: 0.4,
+            dt_max: 1.0,
+            dt_min: 1e-9,
+        },
+        ..ExplicitParams::default()
+    };
+    let walls = Boundaries {
+        walls: Some(DomainWalls {
+            thickness: 3,
+            contact: Contact {
+                kind: ContactKind::Slip,
+                friction: 0.0,
+            },
+        }),
+        ..Boundaries::default()
+    };
+    let mut s = ExplicitSolver::new(spec, params, materials, walls, particles).unwrap();
+    let mut dts = Vec::new();
+    for _ in 0..150 {
+        let scan = s.stable_dt();
+        let info = s.step().unwrap();
+        assert_eq!(info.dt.to_bits(), scan.to_bits(), "step {}", s.steps());
+        dts.push(info.dt);
+    }
+    // The bound moved: the run is not a constant-dt run in disguise.
+    let (lo, hi) = dts
+        .iter()
+        .fold((Real::INFINITY, 0.0), |(lo, hi): (Real, Real), &d| {
+            (lo.min(d), hi.max(d))
+        });
+    assert!(hi > lo * 1.001, "dt stayed within [{lo}, {hi}]");
+}
