@@ -4,9 +4,11 @@
 //! holds the first node of their kernel stencil: a counting sort, stable in particle index.
 //! [`Blocks::scatter`] then lets every non-empty block scatter its particles, in index order,
 //! into a private buffer covering the block's nodes plus the stencil overhang; blocks run in
-//! parallel. The buffers are added to the grid serially in block order. Every node therefore
-//! receives its contributions in an order fixed by the particle positions alone, so the sums are
-//! bitwise identical for any thread count. No atomics on floats are involved.
+//! parallel. The buffers are then added to the grid in slabs of `B` node layers along the last
+//! axis, slabs in parallel, each node receiving its contributions in ascending block order (the
+//! order of a serial pass over the blocks). Every node therefore receives its contributions in an
+//! order fixed by the particle positions alone, so the sums are bitwise identical for any thread
+//! count. No atomics on floats are involved.
 //!
 //! What is scattered is chosen by the caller: a tuple of one to six per-node arrays (the
 //! *channels*), each of any [`NodeValue`] type (`Real`, `Vector<D>`, counters, …). The first
@@ -110,7 +112,7 @@ impl<T: NodeValue> Output for Option<&mut Vec<T>> {
 
 /// The private node storage of one block: a tuple of `Vec<T>`, one per channel, each of
 /// `window.len()` entries while its channel is scattered and empty otherwise.
-pub trait BlockStorage: Default + Send {
+pub trait BlockStorage: Default + Send + Sync {
     /// Zeroes every channel whose bit is set in `enabled` (bit `c` for channel `c`; the gate,
     /// channel 0, is always enabled) to `len` nodes and empties the others.
     fn reset(&mut self, enabled: u32, len: usize);
@@ -125,12 +127,24 @@ pub trait BlockStorage: Default + Send {
 pub trait Channels {
     /// The matching block storage, `(Vec<T0>, Vec<T1>, …)`.
     type Storage: BlockStorage;
+    /// Consecutive nodes of every scattered output array, written by one task.
+    type Slab<'s>: Send
+    where
+        Self: 's;
     /// Bit `c` set: channel `c` is scattered.
     fn enabled(&self) -> u32;
-    /// Clears every scattered output array and fills it with `num_nodes` zeros.
-    fn zero(&mut self, num_nodes: usize);
-    /// Adds local node `k` of `block` to grid node `node` in every scattered output.
-    fn add(&mut self, node: usize, block: &Self::Storage, k: usize);
+    /// Sizes every scattered output array to `num_nodes` and splits it into slabs of
+    /// `slab_len` nodes (the last may be shorter); the values are stale until
+    /// [`Self::zero_slab`].
+    fn slabs(&mut self, num_nodes: usize, slab_len: usize) -> Vec<Self::Slab<'_>>;
+    /// Zeroes every array of a slab.
+    fn zero_slab<'s>(slab: &mut Self::Slab<'s>)
+    where
+        Self: 's;
+    /// Adds local node `k` of `block` to node `node` of the slab in every scattered output.
+    fn add<'s>(slab: &mut Self::Slab<'s>, node: usize, block: &Self::Storage, k: usize)
+    where
+        Self: 's;
 }
 
 macro_rules! channel_tuple {
@@ -165,22 +179,49 @@ macro_rules! channel_tuple {
                 1 $(| (u32::from(self.$i.enabled()) << $i))*
             }
 
-            fn zero(&mut self, num_nodes: usize) {
-                self.0.clear();
+            type Slab<'s> = (&'s mut [T0], $(Option<&'s mut [$O::Value]>,)*) where Self: 's;
+
+            fn slabs(&mut self, num_nodes: usize, slab_len: usize) -> Vec<Self::Slab<'_>> {
                 self.0.resize(num_nodes, T0::zero());
                 $(
                     if let Some(out) = self.$i.array() {
-                        out.clear();
                         out.resize(num_nodes, NodeValue::zero());
+                    }
+                )*
+                let mut parts = (
+                    self.0.chunks_mut(slab_len),
+                    $(self.$i.array().map(|out| out.chunks_mut(slab_len)),)*
+                );
+                (0..num_nodes.div_ceil(slab_len))
+                    .filter_map(|_| {
+                        Some((
+                            parts.0.next()?,
+                            $(match parts.$i.as_mut() {
+                                Some(it) => Some(it.next()?),
+                                None => None,
+                            },)*
+                        ))
+                    })
+                    .collect()
+            }
+
+            fn zero_slab<'s>(slab: &mut Self::Slab<'s>) where Self: 's {
+                slab.0.fill(T0::zero());
+                $(
+                    if let Some(out) = slab.$i.as_deref_mut() {
+                        out.fill(NodeValue::zero());
                     }
                 )*
             }
 
             #[inline]
-            fn add(&mut self, node: usize, block: &Self::Storage, k: usize) {
-                self.0[node] += block.0[k];
+            fn add<'s>(slab: &mut Self::Slab<'s>, node: usize, block: &Self::Storage, k: usize)
+            where
+                Self: 's,
+            {
+                slab.0[node] += block.0[k];
                 $(
-                    if let Some(out) = self.$i.array() {
+                    if let Some(out) = slab.$i.as_deref_mut() {
                         out[node] += block.$i[k];
                     }
                 )*
@@ -413,9 +454,9 @@ impl<const D: usize> Blocks<D> {
                 .resize_with(self.ranges.len(), Default::default);
         }
         buffers.used = self.ranges.len();
-        let (b, dims, order) = (Self::BLOCK_CELLS as i64, self.dims, &self.order);
+        let (dims, order) = (self.dims, &self.order);
         let window_of = |id: usize| BlockWindow {
-            origin: block_origin(id, &dims, b),
+            origin: block_origin(id, &dims, Self::BLOCK_CELLS as i64),
             width,
         };
         self.ranges
@@ -428,19 +469,42 @@ impl<const D: usize> Blocks<D> {
                     f(p as usize, &window, buf);
                 }
             });
-        out.zero(spec.num_nodes());
-        for (&(id, _, _), buf) in self.ranges.iter().zip(&buffers.blocks) {
-            let window = window_of(id);
-            for k in 0..len {
-                if !buf.received(k) {
-                    continue;
-                }
-                let Some(i) = spec.linear_index(&window.node(k)) else {
-                    continue;
+        // The buffers are added in slabs of B node layers along the last axis, slabs in
+        // parallel. Slab z receives from the blocks of block layers z − 1 (their overhang) and
+        // z, in ascending block id, so every node sums its contributions in block order, as a
+        // serial pass over the blocks would.
+        let b = Self::BLOCK_CELLS;
+        let last = D - 1;
+        let layer_blocks: usize = dims[..last].iter().product();
+        let layer_nodes: usize = spec.size[..last].iter().product();
+        let own = b * width.pow(last as u32);
+        let ranges = &self.ranges;
+        let blocks = &buffers.blocks[..ranges.len()];
+        let mut slabs = out.slabs(spec.num_nodes(), b * layer_nodes);
+        slabs.par_iter_mut().enumerate().for_each(|(z, slab)| {
+            C::zero_slab(slab);
+            let from = ranges.partition_point(|r| r.0 < z.saturating_sub(1) * layer_blocks);
+            let to = ranges.partition_point(|r| r.0 < (z + 1) * layer_blocks);
+            let start = z * b * layer_nodes;
+            for (&(id, _, _), buf) in ranges[from..to].iter().zip(&blocks[from..to]) {
+                let window = window_of(id);
+                // The block's own node layers, or the overhang of the layer below.
+                let part = if id / layer_blocks == z {
+                    0..own
+                } else {
+                    own..len
                 };
-                out.add(i, buf, k);
+                for k in part {
+                    if !buf.received(k) {
+                        continue;
+                    }
+                    let Some(i) = spec.linear_index(&window.node(k)) else {
+                        continue;
+                    };
+                    C::add(slab, i - start, buf, k);
+                }
             }
-        }
+        });
     }
 }
 
