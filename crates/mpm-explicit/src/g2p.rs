@@ -85,12 +85,6 @@ impl<const D: usize> Moving<D> {
 
     /// Copies the columns of `particles` into `self`, reusing its allocations.
     pub fn save(&mut self, particles: &Particles<D>) {
-        fn copy<T: Clone>(to: &mut Option<Vec<T>>, from: &Option<Vec<T>>) {
-            match (to.as_mut(), from) {
-                (Some(t), Some(f)) => t.clone_from(f),
-                _ => *to = from.clone(),
-            }
-        }
         self.x.clone_from(&particles.x);
         self.v.clone_from(&particles.v);
         self.affine.clone_from(&particles.affine);
@@ -101,11 +95,6 @@ impl<const D: usize> Moving<D> {
 
     /// Copies the saved columns back into `particles`.
     pub fn restore(&self, particles: &mut Particles<D>) {
-        fn copy<T: Clone>(to: &mut Option<Vec<T>>, from: &Option<Vec<T>>) {
-            if let (Some(t), Some(f)) = (to.as_mut(), from) {
-                t.clone_from(f);
-            }
-        }
         particles.x.clone_from(&self.x);
         particles.v.clone_from(&self.v);
         particles.affine.clone_from(&self.affine);
@@ -162,6 +151,14 @@ impl<const D: usize> Moving<D> {
             start += len;
         }
         out
+    }
+}
+
+/// Copies an optional column, reusing `to`'s allocation when both exist.
+fn copy<T: Clone>(to: &mut Option<Vec<T>>, from: &Option<Vec<T>>) {
+    match (to.as_mut(), from) {
+        (Some(t), Some(f)) => t.clone_from(f),
+        _ => *to = from.clone(),
     }
 }
 

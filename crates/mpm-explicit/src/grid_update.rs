@@ -35,48 +35,43 @@ pub(crate) fn update<const D: usize>(
         velocity,
     } = grid;
     let gravity = forces.gravity;
-    let boundaries = boundaries.filter(|b| !b.is_empty());
-    // Rows along axis 0: the multi-index is formed once per row, not divided out per node.
-    let row = spec.size[0];
-    let rows = velocity
-        .par_chunks_mut(row)
-        .zip(momentum.par_chunks(row))
-        .zip(mass.par_chunks(row))
-        .enumerate();
-    let mut m0_rows: Vec<Option<&mut [Vector<D>]>> = match momentum0 {
-        Some(m0) => m0.chunks_mut(row).map(Some).collect(),
-        None => (0..rows.len()).map(|_| None).collect(),
+    let walls = |i: usize, v: &mut Vector<D>| {
+        if let Some(b) = boundaries.filter(|b| !b.is_empty()) {
+            b.apply(spec, t, &spec.multi_index(i), v);
+        }
     };
-    rows.zip(m0_rows.par_iter_mut())
-        .for_each(|((r, ((vs, ps), ms)), p0s)| {
-            let mut node = spec.multi_index(r * row);
-            for i in 0..vs.len() {
-                let (v, p, m) = (&mut vs[i], &ps[i], ms[i]);
-                if m <= 0.0 {
-                    *v = Vector::<D>::zeros();
-                    continue;
-                }
-                *v = match p0s.as_deref_mut() {
-                    None => p / m + gravity * dt,
-                    Some(p0s) => {
-                        let p0 = &mut p0s[i];
-                        let v = match &forces.damping {
-                            Some(d) => {
-                                let f = (p - *p0) / dt + gravity * m;
-                                d.velocity(&(*p0 / m), &f, m, dt)
-                            }
-                            None => p / m + gravity * dt,
-                        };
-                        *p0 /= m;
-                        v
-                    }
-                };
-                if let Some(b) = boundaries {
-                    node[0] = i as i64;
-                    b.apply(spec, t, &node, v);
-                }
+    let nodes = velocity
+        .par_iter_mut()
+        .zip(momentum.par_iter())
+        .zip(mass.par_iter())
+        .enumerate();
+    match momentum0 {
+        None => nodes.for_each(|(i, ((v, p), &m))| {
+            if m > 0.0 {
+                *v = p / m + gravity * dt;
+                walls(i, v);
+            } else {
+                *v = Vector::<D>::zeros();
             }
-        });
+        }),
+        Some(m0) => nodes
+            .zip(m0.par_iter_mut())
+            .for_each(|((i, ((v, p), &m)), p0)| {
+                if m > 0.0 {
+                    *v = match &forces.damping {
+                        Some(d) => {
+                            let f = (p - *p0) / dt + gravity * m;
+                            d.velocity(&(*p0 / m), &f, m, dt)
+                        }
+                        None => p / m + gravity * dt,
+                    };
+                    *p0 /= m;
+                    walls(i, v);
+                } else {
+                    *v = Vector::<D>::zeros();
+                }
+            }),
+    }
     check_finite(velocity)
 }
 
@@ -90,20 +85,12 @@ pub(crate) fn apply_boundaries<const D: usize>(
 ) -> Result<(), (Location, Violation, Real)> {
     if !boundaries.is_empty() {
         let GridNodes { mass, velocity, .. } = grid;
-        let row = spec.size[0];
         velocity
-            .par_chunks_mut(row)
-            .zip(mass.par_chunks(row))
+            .par_iter_mut()
+            .zip(mass.par_iter())
             .enumerate()
-            .for_each(|(r, (vs, ms))| {
-                let mut node = spec.multi_index(r * row);
-                for (i, (v, &m)) in vs.iter_mut().zip(ms).enumerate() {
-                    if m > 0.0 {
-                        node[0] = i as i64;
-                        boundaries.apply(spec, t, &node, v);
-                    }
-                }
-            });
+            .filter(|(_, (_, &m))| m > 0.0)
+            .for_each(|(i, (v, _))| boundaries.apply(spec, t, &spec.multi_index(i), v));
     }
     check_finite(&grid.velocity)
 }
