@@ -196,6 +196,7 @@ fn dam_break_3d(steps: usize) -> DiqFluid<3> {
         walls: Some(DomainWalls {
             contact: Contact::default(),
             thickness: 1,
+            treatment: Default::default(),
         }),
         colliders: Vec::new(),
     };
@@ -326,6 +327,7 @@ fn floating_block_2d(n: usize) -> DiqCoupled<2> {
         walls: Some(DomainWalls {
             contact: Contact::default(),
             thickness: 1,
+            treatment: Default::default(),
         }),
         colliders: Vec::new(),
     };

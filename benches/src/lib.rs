@@ -162,6 +162,7 @@ where
                 friction: 0.0,
             },
             thickness: 3,
+            treatment: Default::default(),
         }),
         colliders: vec![],
     };

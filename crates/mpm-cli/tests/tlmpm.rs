@@ -415,3 +415,34 @@ fn persistent_and_flip_transfers_run_in_tlmpm_and_persistent_is_refused_elsewher
     );
     assert!(err.contains("solver = \"tlmpm\""), "{err}");
 }
+
+/// Issue 14 item 1: a `[[clamp_planes]]` clamp holds the beam on the plane X = 0 exactly, on a
+/// grid with a node layer there and on one offset by half a cell, so both give the same first
+/// swing; fixing the nodes at X ≤ 0 leaves the clamp soft by O(Δx) (a larger swing).
+#[test]
+fn a_clamp_plane_holds_the_same_on_node_and_half_node_layers() {
+    let plane = CANTILEVER
+        .replace("end_time = 1.3", "end_time = 0.45")
+        .replace(
+            "[[fixed]]\nmin = [-1.0, -1.0]\nmax = [0.0, 1.0]",
+            "[[clamp_planes]]\naxis = 0\nposition = 0.0\nside = \"above\"",
+        );
+    assert_ne!(
+        plane,
+        CANTILEVER.replace("end_time = 1.3", "end_time = 0.45")
+    );
+    let half = plane.replace("min = [-0.1, -0.3]", "min = [-0.1125, -0.3]");
+    let nodes = CANTILEVER.replace("end_time = 1.3", "end_time = 0.45");
+    let peak = |name: &str, text: &str| first_peak_and_summary(&tmpdir(name), text).0;
+    let (on_node, on_half, fixed) = (
+        peak("tlmpm-clamp-plane-node", &plane),
+        peak("tlmpm-clamp-plane-half", &half),
+        peak("tlmpm-clamp-fixed-nodes", &nodes),
+    );
+    eprintln!("first peak: plane on a node layer {on_node:.5} m, midway {on_half:.5} m, fixed nodes {fixed:.5} m");
+    assert!(
+        (on_node - on_half).abs() < 2e-3 * on_node,
+        "{on_node} {on_half}"
+    );
+    assert!(fixed > 1.015 * on_node, "{fixed} {on_node}");
+}

@@ -15,6 +15,7 @@
 
 use crate::grid::GridSpec;
 use crate::math::{Real, Vector};
+pub use crate::mirror::WallTreatment;
 use serde::{Deserialize, Serialize};
 
 /// How a boundary treats the velocity of nodes inside it.
@@ -81,13 +82,17 @@ impl Contact {
 }
 
 /// The walls of the grid box: nodes within `thickness` nodes of a face get the contact rule,
-/// with the face's inward normal.
+/// with the face's inward normal. With [`WallTreatment::Mirror`] the innermost of those layers is
+/// the wall plane and the others are mirrored ghosts (`crate::mirror`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DomainWalls {
     /// Contact rule.
     pub contact: Contact,
     /// Number of node layers treated as wall on each face (≥ 1).
     pub thickness: usize,
+    /// How the wall layers act on the grid.
+    #[serde(default)]
+    pub treatment: WallTreatment,
 }
 
 /// Analytic collider shapes; the collider occupies the inside (signed distance ≤ 0).
@@ -181,6 +186,7 @@ impl<const D: usize> Boundaries<D> {
                     friction: 0.0,
                 },
                 thickness,
+                treatment: WallTreatment::Nodes,
             }),
             colliders: Vec::new(),
         }
@@ -583,6 +589,7 @@ mod tests {
             walls: Some(DomainWalls {
                 contact: contact(kind, 0.0),
                 thickness: 2,
+                treatment: Default::default(),
             }),
             colliders: vec![],
         };
@@ -637,6 +644,7 @@ mod tests {
             walls: Some(DomainWalls {
                 contact: contact(ContactKind::Sticky, 0.0),
                 thickness: 1,
+                treatment: Default::default(),
             }),
             colliders: vec![],
         };
@@ -652,6 +660,7 @@ mod tests {
             walls: Some(DomainWalls {
                 contact: contact(ContactKind::Slip, 0.0),
                 thickness: 2,
+                treatment: Default::default(),
             }),
             colliders: vec![],
         };

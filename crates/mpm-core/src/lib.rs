@@ -15,6 +15,7 @@ pub mod grid;
 pub mod kernel;
 pub mod material;
 pub mod math;
+pub mod mirror;
 pub mod neighbors;
 pub mod particles;
 pub mod quasistatic;

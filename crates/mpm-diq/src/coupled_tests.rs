@@ -85,6 +85,7 @@ fn walls<const D: usize>(on: bool) -> Boundaries<D> {
         walls: on.then_some(DomainWalls {
             contact: Contact::default(),
             thickness: 1,
+            treatment: Default::default(),
         }),
         colliders: Vec::new(),
     }

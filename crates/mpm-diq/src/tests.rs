@@ -58,6 +58,7 @@ fn walls<const D: usize>() -> Boundaries<D> {
         walls: Some(DomainWalls {
             contact: Contact::default(),
             thickness: 1,
+            treatment: Default::default(),
         }),
         colliders: Vec::new(),
     }

@@ -50,6 +50,7 @@ fn main() {
                 friction: 0.0,
             },
             thickness: 3,
+            treatment: Default::default(),
         }),
         colliders: vec![],
     };

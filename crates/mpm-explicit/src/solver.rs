@@ -10,6 +10,7 @@ use crate::p2g;
 use crate::params::{ExplicitParams, Transfer, VolumeUpdate};
 use mpm_core::boundary::Boundaries;
 use mpm_core::material::Parameter;
+use mpm_core::mirror::MirrorWalls;
 use mpm_core::quasistatic::gravity_at;
 use mpm_core::solver::{nan_max, DtBound, RestoreError, StageTime};
 use mpm_core::timestep::{choose_dt, stable_dt};
@@ -81,6 +82,8 @@ pub struct ExplicitSolver<const D: usize> {
     /// particle state that changes materials after G2P, any other change of the particles).
     signal: Option<Real>,
     geometry_needs: Vec<GeometryNeeds>,
+    /// The mirrored ghost layers of the domain walls, when the walls use them.
+    mirror: Option<MirrorWalls<D>>,
     ws: Workspace<D>,
 }
 
@@ -98,8 +101,16 @@ where
         particles: Particles<D>,
     ) -> Result<Self, SetupError> {
         crate::validate::validate(&spec, &params, &materials, &particles)?;
+        let mirror = match &boundaries.walls {
+            Some(w) => MirrorWalls::new(&spec, w).map_err(|reason| SetupError::InvalidSetting {
+                setting: "walls".into(),
+                reason,
+            })?,
+            None => None,
+        };
         let phases = params.phases.count as usize;
         let mut s = Self {
+            mirror,
             geometry_needs: coupling::geometry_needs(phases, &params.phases.couplings),
             ws: Workspace::new(phases),
             spec,
@@ -453,6 +464,9 @@ where
             .iter_mut()
             .zip(self.ws.velocity_old.iter_mut())
         {
+            if let Some(m) = &self.mirror {
+                fold_ghosts(m, grid, with0.then_some(v0), forces.gravity * dt);
+            }
             r = r.and(grid_update::update(
                 &self.spec,
                 grid,
@@ -462,6 +476,9 @@ where
                 self.time,
                 dt,
             ));
+            if let (Some(m), Some(_)) = (&self.mirror, boundaries) {
+                fill_ghosts(m, grid, with0.then_some(v0));
+            }
         }
         self.stats.add(Stage::GridUpdate, t.elapsed());
         r
@@ -473,6 +490,7 @@ where
         let t = Instant::now();
         let view = material_view(&self.materials, &self.params);
         let gravity = self.gravity();
+        let with0 = self.needs_momentum0();
         let ws = &mut self.ws;
         for (k, needs) in self.geometry_needs.iter().enumerate() {
             if needs.geometry {
@@ -491,13 +509,16 @@ where
             coupling::couple(&self.spec, c, &mut ws.grids, &ws.geometry, &gravity, dt);
         }
         let mut r = Ok(());
-        for grid in ws.grids.iter_mut() {
+        for (grid, v0) in ws.grids.iter_mut().zip(ws.velocity_old.iter_mut()) {
             r = r.and(grid_update::apply_boundaries(
                 &self.spec,
                 grid,
                 &self.boundaries,
                 self.time,
             ));
+            if let Some(m) = &self.mirror {
+                fill_ghosts(m, grid, with0.then_some(v0));
+            }
         }
         self.stats.add(Stage::Coupling, t.elapsed());
         r
@@ -768,6 +789,34 @@ where
 }
 
 /// The per-particle material resolver of a scene.
+/// Folds the mirrored ghost layers of `grid` (and of the momentum without forces `momentum0`)
+/// into their mirror nodes after P2G; `gravity_impulse` is `Δt g` (m/s).
+fn fold_ghosts<const D: usize>(
+    mirror: &MirrorWalls<D>,
+    grid: &mut GridNodes<D>,
+    momentum0: Option<&mut Vec<Vector<D>>>,
+    gravity_impulse: Vector<D>,
+) {
+    let mut channels = vec![(grid.momentum.as_mut_slice(), Some(gravity_impulse))];
+    if let Some(p0) = momentum0 {
+        channels.push((p0.as_mut_slice(), None));
+    }
+    mirror.fold(&mut grid.mass, &mut channels);
+}
+
+/// Gives the ghost nodes of `grid` (and the pre-update velocities `velocity0`) the reflected
+/// velocities of their mirror nodes after the boundaries.
+fn fill_ghosts<const D: usize>(
+    mirror: &MirrorWalls<D>,
+    grid: &mut GridNodes<D>,
+    velocity0: Option<&mut Vec<Vector<D>>>,
+) {
+    mirror.fill(&mut grid.velocity);
+    if let Some(v0) = velocity0 {
+        mirror.fill(v0);
+    }
+}
+
 fn material_view<'a, const D: usize>(
     materials: &'a [Material],
     params: &'a ExplicitParams<D>,

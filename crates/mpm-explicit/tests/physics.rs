@@ -198,6 +198,7 @@ fn dam_break_energy_does_not_grow() {
                 friction: 0.0,
             },
             thickness: 3,
+            treatment: Default::default(),
         }),
         colliders: vec![],
     };
@@ -254,6 +255,7 @@ fn serial_and_parallel_steps_are_bitwise_equal() {
                 walls: Some(DomainWalls {
                     contact: Contact::default(),
                     thickness: 3,
+                    treatment: Default::default(),
                 }),
                 colliders: vec![],
             };
@@ -480,6 +482,7 @@ fn adaptive_dt_from_g2p_equals_the_particle_scan() {
     let walls = Boundaries {
         walls: Some(DomainWalls {
             thickness: 3,
+            treatment: Default::default(),
             contact: Contact {
                 kind: ContactKind::Slip,
                 friction: 0.0,

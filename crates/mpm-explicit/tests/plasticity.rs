@@ -16,6 +16,7 @@ fn floor() -> Boundaries<2> {
                 friction: 0.0,
             },
             thickness: 3,
+            treatment: Default::default(),
         }),
         colliders: vec![],
     }

@@ -416,7 +416,13 @@ where
         particles: Particles<D>,
     ) -> Result<Self, SetupError> {
         let models = validate(&spec, &params, &materials, &particles)?;
-        let reference = ReferenceConfig::new(spec, params.kernel, &particles.x, &particles.mass)?;
+        let reference = ReferenceConfig::new(
+            spec,
+            params.kernel,
+            &params.clamp_planes,
+            &particles.x,
+            &particles.mass,
+        )?;
         let constraints = Constraints::new(&reference, &params.fixed);
         let loads = AppliedLoads::new(
             &params.nodal_loads,
@@ -555,6 +561,7 @@ where
         self.reference = ReferenceConfig::new(
             *self.reference.spec(),
             self.reference.kernel(),
+            self.reference.clamp_planes(),
             &state.reference_positions,
             &self.particles.mass,
         )?;
@@ -816,6 +823,7 @@ where
         let reference = ReferenceConfig::new(
             *self.reference.spec(),
             self.reference.kernel(),
+            self.reference.clamp_planes(),
             &ps.x,
             &ps.mass,
         )

@@ -76,7 +76,7 @@ pub use loads::{NodalLoad, NodeSelection, SurfaceTraction};
 pub use mpm_linalg::CholeskyError;
 pub use newton::{fitted_order, NewtonInfo};
 pub use params::{
-    ContactParams, FixedRegion, ImplicitParams, LineSearch, LinearSolver, NewtonParams,
+    ClampPlane, ContactParams, FixedRegion, ImplicitParams, LineSearch, LinearSolver, NewtonParams,
     ReferenceUpdate, SpdProjection, TimeScheme, TlmpmParams, Transfer,
 };
 pub use reference::ReferenceConfig;

@@ -73,6 +73,29 @@ impl<const D: usize> FixedRegion<D> {
     }
 }
 
+/// A clamp that holds exactly on a plane of the reference grid (issue 14, item 1): every
+/// displacement component vanishes on the plane `X_axis = position`, the material lying on the
+/// side `above` (`X_axis > position`) or below it.
+///
+/// It works on the basis, not on nodes: each B-spline `N_g` of a node beyond the plane is folded
+/// into the node mirrored across it, `φ_k = N_k − N_{mirror(k)}`, and a node on the plane drops
+/// out. Every `φ_k` vanishes on the plane, so `u = Σ c_k φ_k` is zero there whatever the
+/// coefficients: the clamp holds exactly, with the displacement odd across the plane (the
+/// reflection the mirrored walls of the explicit solver use for sticky walls). The mirror of a
+/// node must be a node, so the plane must lie on a node layer or midway between two; both hold the
+/// clamp exactly. Node clamps ([`FixedRegion`]) leave `u(X₀) = c₁/8` with a node at `X₀`
+/// (O(Δx) too soft).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ClampPlane {
+    /// Axis of the plane's normal (0 = x, 1 = y, 2 = z).
+    pub axis: usize,
+    /// Position of the plane along `axis` in the reference configuration (m): on a node layer
+    /// or midway between two.
+    pub position: Real,
+    /// Whether the material lies above the plane (`X_axis > position`); else below.
+    pub above: bool,
+}
+
 /// Parameters shared by the implicit and the explicit TLMPM solvers.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TlmpmParams<const D: usize> {
@@ -98,6 +121,9 @@ pub struct TlmpmParams<const D: usize> {
     /// Particle–particle and particle–obstacle penalty contact (diq-mpm §3.2, Eq. 4); `None`
     /// runs no contact stage.
     pub contact: Option<ContactParams<D>>,
+    /// Exact clamps on grid planes (none by default); they hold after A-ULMPM reference updates
+    /// too.
+    pub clamp_planes: Vec<ClampPlane>,
     /// Forces on reference-grid nodes (none by default).
     pub nodal_loads: Vec<NodalLoad<D>>,
     /// Surface tractions through the surface particles (none by default).
@@ -142,6 +168,7 @@ impl<const D: usize> Default for TlmpmParams<D> {
             on_instability: OnInstability::Abort,
             fixed: Vec::new(),
             contact: None,
+            clamp_planes: Vec::new(),
             nodal_loads: Vec::new(),
             tractions: Vec::new(),
             reference_update: None,

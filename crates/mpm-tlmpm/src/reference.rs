@@ -10,7 +10,7 @@
 //! cubic splines; for the linear kernel this happens only for particles exactly on a grid line,
 //! where the tent function has no derivative.
 
-use crate::params::FixedRegion;
+use crate::params::{ClampPlane, FixedRegion};
 use mpm_core::{GridSpec, Kernel, Real, SetupError, Stencil, Vector};
 use mpm_linalg::DofMap;
 use rayon::prelude::*;
@@ -23,6 +23,8 @@ pub(crate) const NONE: u32 = u32::MAX;
 pub struct ReferenceConfig<const D: usize> {
     spec: GridSpec<D>,
     kernel: Kernel,
+    /// Exact clamps folded into the basis (see [`ClampPlane`]).
+    planes: Vec<ClampPlane>,
     slots: usize,
     positions: Vec<Vector<D>>,
     slot_node: Vec<u32>,
@@ -41,6 +43,7 @@ impl<const D: usize> ReferenceConfig<D> {
     pub fn new(
         spec: GridSpec<D>,
         kernel: Kernel,
+        planes: &[ClampPlane],
         positions: &[Vector<D>],
         mass: &[Real],
     ) -> Result<Self, SetupError> {
@@ -59,16 +62,19 @@ impl<const D: usize> ReferenceConfig<D> {
                 });
             }
         }
+        let mirrors = mirror_planes(&spec, planes, positions)?;
         let slots = kernel.support().pow(D as u32);
         let n = positions.len();
         // Pass 1: which grid nodes carry weight.
+        let mut entries = Vec::with_capacity(slots);
         let mut node_of_grid = vec![NONE; spec.num_nodes()];
         for x in positions {
-            Stencil::new(kernel, &spec, x).for_each(|node, w, _| {
+            stencil_entries(kernel, &spec, &mirrors, x, &mut entries);
+            for &(node, w, _) in &entries {
                 if let (Some(g), true) = (spec.linear_index(&node), w > 0.0) {
                     node_of_grid[g] = 0;
                 }
-            });
+            }
         }
         let mut node_grid = Vec::new();
         for (g, id) in node_of_grid.iter_mut().enumerate() {
@@ -89,7 +95,8 @@ impl<const D: usize> ReferenceConfig<D> {
         let mut slot_weight = Vec::with_capacity(n * slots);
         let mut slot_gradient = Vec::with_capacity(n * slots);
         for x in positions {
-            Stencil::new(kernel, &spec, x).for_each(|node, w, g| {
+            stencil_entries(kernel, &spec, &mirrors, x, &mut entries);
+            for &(node, w, g) in &entries {
                 let id = spec.linear_index(&node).map_or(NONE, |i| node_of_grid[i]);
                 if w > 0.0 && id != NONE {
                     slot_node.push(id);
@@ -100,7 +107,7 @@ impl<const D: usize> ReferenceConfig<D> {
                     slot_weight.push(0.0);
                     slot_gradient.push(Vector::<D>::zeros());
                 }
-            });
+            }
         }
         let num_nodes = node_grid.len();
         // Node → (particle, slot) incidence, particles in ascending order within each node.
@@ -137,6 +144,7 @@ impl<const D: usize> ReferenceConfig<D> {
         Ok(Self {
             spec,
             kernel,
+            planes: planes.to_vec(),
             slots,
             positions: positions.to_vec(),
             slot_node,
@@ -158,6 +166,11 @@ impl<const D: usize> ReferenceConfig<D> {
     /// The B-spline kernel.
     pub fn kernel(&self) -> Kernel {
         self.kernel
+    }
+
+    /// The exact clamps folded into the basis.
+    pub fn clamp_planes(&self) -> &[ClampPlane] {
+        &self.planes
     }
 
     /// Number of particles.
@@ -237,6 +250,106 @@ impl<const D: usize> ReferenceConfig<D> {
 }
 
 /// Dirichlet data on the active nodes and the numbering of the nodes that keep equations.
+/// A clamp plane in grid units: the axis, twice the plane's node coordinate (an integer: on a
+/// node layer or midway between two) and the material's side.
+#[derive(Clone, Copy, Debug)]
+struct Mirror {
+    axis: usize,
+    twice: i64,
+    above: bool,
+}
+
+/// The clamp planes in grid units, checking that each lies on a node layer or midway between
+/// two, inside the grid, with every particle on its material side.
+fn mirror_planes<const D: usize>(
+    spec: &GridSpec<D>,
+    planes: &[ClampPlane],
+    positions: &[Vector<D>],
+) -> Result<Vec<Mirror>, SetupError> {
+    let mut out = Vec::with_capacity(planes.len());
+    for c in planes {
+        let bad = |reason| {
+            Err(SetupError::InvalidSetting {
+                setting: format!("clamp plane on axis {} at {} m", c.axis, c.position),
+                reason,
+            })
+        };
+        if c.axis >= D {
+            return bad(format!("axis must be below {D}"));
+        }
+        let twice = 2.0 * (c.position - spec.origin[c.axis]) / spec.dx;
+        let k = twice.round();
+        if !((twice - k).abs() < 1e-6 && k >= 0.0 && k <= 2.0 * (spec.size[c.axis] - 1) as Real) {
+            return bad(
+                "the plane must lie inside the grid, on a node layer or midway between two".into(),
+            );
+        }
+        // Strictly on the material side: there a folded weight is positive exactly where the
+        // unfolded one is, so the active-node rule (positive weight) still holds.
+        let on_side = |x: &Vector<D>| {
+            let d = x[c.axis] - c.position;
+            if c.above {
+                d > 0.0
+            } else {
+                d < 0.0
+            }
+        };
+        if let Some(p) = positions.iter().position(|x| !on_side(x)) {
+            return bad(format!(
+                "particle {p} lies on the plane or on its clamped side (the material must lie {})",
+                if c.above { "above it" } else { "below it" }
+            ));
+        }
+        out.push(Mirror {
+            axis: c.axis,
+            twice: k as i64,
+            above: c.above,
+        });
+    }
+    Ok(out)
+}
+
+/// The stencil of a particle at `x` with the clamp planes folded in: each entry of a node beyond
+/// a plane is subtracted from the entry of its mirror node (which the stencil always holds for a
+/// particle on the material side) and zeroed, and an entry of a node on the plane is zeroed, so
+/// every entry is `φ_k = N_k − N_{mirror(k)}` (see [`ClampPlane`]). Zeroed entries keep their
+/// slot with weight 0, which leaves them out of the active nodes.
+fn stencil_entries<const D: usize>(
+    kernel: Kernel,
+    spec: &GridSpec<D>,
+    mirrors: &[Mirror],
+    x: &Vector<D>,
+    entries: &mut Vec<([i64; D], Real, Vector<D>)>,
+) {
+    entries.clear();
+    Stencil::new(kernel, spec, x).for_each(|node, w, g| entries.push((node, w, g)));
+    for m in mirrors {
+        for e in 0..entries.len() {
+            let (node, w, g) = entries[e];
+            // How far the node lies beyond the plane, in half cells (negative: material side).
+            let beyond = if m.above {
+                m.twice - 2 * node[m.axis]
+            } else {
+                2 * node[m.axis] - m.twice
+            };
+            if beyond < 0 || w == 0.0 {
+                continue;
+            }
+            entries[e].1 = 0.0;
+            entries[e].2 = Vector::<D>::zeros();
+            if beyond == 0 {
+                continue;
+            }
+            let mut image = node;
+            image[m.axis] = m.twice - node[m.axis];
+            if let Some(t) = entries.iter().position(|(n, _, _)| *n == image) {
+                entries[t].1 -= w;
+                entries[t].2 -= g;
+            }
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub(crate) struct Constraints<const D: usize> {
     /// Per node and component: 1 when free, 0 when prescribed.
@@ -313,7 +426,7 @@ mod tests {
         let x = lattice::<D>(0.3, 0.7, 0.05);
         let m = vec![2.0; x.len()];
         for kernel in [Kernel::Linear, Kernel::Quadratic, Kernel::Cubic] {
-            let r = ReferenceConfig::new(spec, kernel, &x, &m).unwrap();
+            let r = ReferenceConfig::new(spec, kernel, &[], &x, &m).unwrap();
             // Node masses add up to the particle mass.
             assert_relative_eq!(
                 r.node_masses().iter().sum::<Real>(),
@@ -339,7 +452,7 @@ mod tests {
         }
         let outside = vec![Vector::<D>::from_element(0.01)];
         assert!(matches!(
-            ReferenceConfig::new(spec, Kernel::Quadratic, &outside, &[1.0]),
+            ReferenceConfig::new(spec, Kernel::Quadratic, &[], &outside, &[1.0]),
             Err(SetupError::ParticleOutsideGrid { index: 0, .. })
         ));
     }
@@ -354,7 +467,8 @@ mod tests {
     fn constraints_number_equation_nodes() {
         let spec = GridSpec::<2>::new(Vector::<2>::zeros(), 0.1, [12; 2]);
         let x = lattice::<2>(0.3, 0.7, 0.05);
-        let r = ReferenceConfig::new(spec, Kernel::Quadratic, &x, &vec![1.0; x.len()]).unwrap();
+        let r =
+            ReferenceConfig::new(spec, Kernel::Quadratic, &[], &x, &vec![1.0; x.len()]).unwrap();
         let mut roller = FixedRegion::clamp(Vector::<2>::new(0.0, 0.0), Vector::<2>::new(1.2, 0.3));
         roller.axes = [false, true];
         let clamp = FixedRegion::clamp(Vector::<2>::new(0.0, 0.7), Vector::<2>::new(1.2, 1.2));
@@ -369,5 +483,74 @@ mod tests {
             .sum();
         assert_eq!(fixed, 14 + 28);
         assert_eq!(c.dofs.len(), 35);
+    }
+
+    /// Issue 14 item 1: a clamp plane folds the basis so that every weight is
+    /// `N_k(X) − N_k(X̄)`, `X̄` the particle's mirror image, which is zero on the plane: the
+    /// plane holds exactly whatever the node values. Checked on a node layer and midway between
+    /// two, for the quadratic and the cubic spline, weights and gradients.
+    #[test]
+    fn clamp_planes_fold_the_basis_so_that_it_vanishes_on_the_plane() {
+        let spec = GridSpec::<2>::new(Vector::<2>::new(-0.3, -0.3), 0.1, [14; 2]);
+        for kernel in [Kernel::Quadratic, Kernel::Cubic] {
+            for plane in [0.0, 0.05] {
+                let c = ClampPlane {
+                    axis: 0,
+                    position: plane,
+                    above: true,
+                };
+                // Particles from just above the plane to two cells above it.
+                let x: Vec<Vector<2>> = (1..=20)
+                    .map(|k| Vector::<2>::new(plane + 0.01 * k as Real, 0.437))
+                    .collect();
+                let r = ReferenceConfig::new(spec, kernel, &[c], &x, &vec![1.0; x.len()]).unwrap();
+                for p in 0..x.len() {
+                    // N_k(X) − N_k(X̄) and its gradient, d/dX N_k(X̄) = (−∂ₓN_k, ∂ᵧN_k)(X̄).
+                    let mut expect = std::collections::BTreeMap::new();
+                    let image = Vector::<2>::new(2.0 * plane - x[p].x, x[p].y);
+                    Stencil::new(kernel, &spec, &x[p]).for_each(|node, w, g| {
+                        let e = expect.entry(node).or_insert((0.0, Vector::<2>::zeros()));
+                        e.0 += w;
+                        e.1 += g;
+                    });
+                    Stencil::new(kernel, &spec, &image).for_each(|node, w, g| {
+                        let e = expect.entry(node).or_insert((0.0, Vector::<2>::zeros()));
+                        e.0 -= w;
+                        e.1 += Vector::<2>::new(g.x, -g.y);
+                    });
+                    let mut seen = 0;
+                    for (i, w, g) in r.stencil(p) {
+                        let node = spec.multi_index(r.grid_index(i));
+                        assert!(2.0 * (node[0] as Real * 0.1 - 0.3) > 2.0 * plane - 1e-12);
+                        let (ew, eg) = expect[&node];
+                        assert!(w > 0.0 && (w - ew).abs() < 1e-14, "{kernel:?} {plane} {p}");
+                        assert!((g - eg).norm() < 1e-12, "{kernel:?} {plane} {p}");
+                        seen += 1;
+                    }
+                    // Every node with a non-zero folded function is in the stencil.
+                    let material = expect
+                        .iter()
+                        .filter(|(n, (w, _))| {
+                            n[0] as Real * 0.1 - 0.3 > plane + 1e-12 && w.abs() > 1e-14
+                        })
+                        .count();
+                    assert_eq!(seen, material, "{kernel:?} {plane} {p}");
+                }
+            }
+        }
+        // A plane off the node and half-node layers, and a particle on the clamped side, are
+        // refused.
+        let x = vec![Vector::<2>::new(0.05, 0.4)];
+        let at = |position, above| ClampPlane {
+            axis: 0,
+            position,
+            above,
+        };
+        for c in [at(0.03, true), at(0.0, false), at(0.05, true)] {
+            assert!(matches!(
+                ReferenceConfig::new(spec, Kernel::Quadratic, &[c], &x, &[1.0]),
+                Err(SetupError::InvalidSetting { .. })
+            ));
+        }
     }
 }

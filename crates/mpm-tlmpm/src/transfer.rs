@@ -228,7 +228,7 @@ mod tests {
             .collect();
         let mass = vec![1.5; x.len()];
         let spec = GridSpec::<2>::new(Vector::<2>::zeros(), 0.1, [12; 2]);
-        let reference = ReferenceConfig::new(spec, Kernel::Quadratic, &x, &mass).unwrap();
+        let reference = ReferenceConfig::new(spec, Kernel::Quadratic, &[], &x, &mass).unwrap();
         let v = (0..x.len())
             .map(|_| Vector::<2>::new(next(), next()))
             .collect();

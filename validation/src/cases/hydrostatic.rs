@@ -9,7 +9,7 @@
 
 use super::{assemble, lattice, sweep, RunError};
 use crate::report::{fit_rate, least_squares, progress, timed_step, CaseResult, Mode, Run};
-use mpm_core::boundary::Boundaries;
+use mpm_core::boundary::{Boundaries, WallTreatment};
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{
@@ -118,7 +118,14 @@ pub fn build(
     cfg: &HydroConfig,
     n: usize,
 ) -> Result<(ExplicitSolver<2>, Vec<Vec<usize>>), RunError> {
-    build_column(cfg, n, Start::Hydrostatic, Damping::default(), None)
+    build_column(
+        cfg,
+        n,
+        Start::Hydrostatic,
+        Damping::default(),
+        None,
+        WallTreatment::Nodes,
+    )
 }
 
 /// Builds the column with `n` cells per metre, starting in state `start`, with `damping` and
@@ -130,6 +137,7 @@ pub fn build_column(
     start: Start,
     damping: Damping,
     ramp: Option<GravityRamp>,
+    treatment: WallTreatment,
 ) -> Result<(ExplicitSolver<2>, Vec<Vec<usize>>), RunError> {
     let dx = 1.0 / n as Real;
     let cells_x = (cfg.width / dx).round() as usize;
@@ -174,7 +182,10 @@ pub fn build_column(
         }
     }
     particles.jacobian = Some(js);
-    let boundaries = Boundaries::slip_walls(3);
+    let mut boundaries = Boundaries::slip_walls(3);
+    if let Some(w) = boundaries.walls.as_mut() {
+        w.treatment = treatment;
+    }
     let params = ExplicitParams {
         gravity: Vector::<2>::new(0.0, -cfg.gravity),
         gravity_ramp: ramp,

@@ -15,7 +15,9 @@ use super::{assemble, lattice, neo_hookean, sweep, RunError};
 use crate::report::{
     decreases_under_refinement, nan_max, progress, timed_step, CaseResult, Mode, Run,
 };
-use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
+use mpm_core::boundary::{
+    Boundaries, Collider, ColliderShape, Contact, ContactKind, DomainWalls, WallTreatment,
+};
 use mpm_core::material::Lame;
 use mpm_core::{
     Columns, Dim, DimOps, GridSpec, Kernel, Matrix, ParticleInit, Particles, Real, TimeStepPolicy,
@@ -56,6 +58,11 @@ pub struct MmsConfig {
     /// Where the error is measured: every particle (`None`) or those whose reference position
     /// lies at least this distance (m) from every face (the interior, away from the walls).
     pub interior: Option<Real>,
+    /// Whether the faces are mirrored slip walls (`WallTreatment::Mirror`, the wall planes on
+    /// the faces) instead of slip half-space colliders that hold the nodes on and beyond them.
+    /// The solution is odd in the normal and even in the tangential components across every
+    /// face, so with mirrored walls the discrete problem has no boundary closure at all.
+    pub mirror_walls: bool,
 }
 
 impl Default for MmsConfig {
@@ -71,6 +78,7 @@ impl Default for MmsConfig {
             kernel: Kernel::Quadratic,
             transfer: Transfer::Apic,
             interior: None,
+            mirror_walls: false,
         }
     }
 }
@@ -193,9 +201,24 @@ where
             });
         }
     }
-    let boundaries = Boundaries {
-        walls: None,
-        colliders,
+    let boundaries = if cfg.mirror_walls {
+        // Four layers: the innermost, node 3, lies on the face.
+        Boundaries {
+            walls: Some(DomainWalls {
+                contact: Contact {
+                    kind: ContactKind::Slip,
+                    friction: 0.0,
+                },
+                thickness: 4,
+                treatment: WallTreatment::Mirror,
+            }),
+            colliders: Vec::new(),
+        }
+    } else {
+        Boundaries {
+            walls: None,
+            colliders,
+        }
     };
     let (dt, _) = cfg.time_steps::<D>(dx);
     let reference = xs.clone();

@@ -11,23 +11,46 @@
 //! - `cubic`: the cubic B-spline (kernel order and its truncation at the walls);
 //! - `pic`: PIC transfer (transfer dissipation).
 //!
-//! A variant whose rate rises markedly over the baseline's names the cap; one whose error
-//! barely changes is not it.
+//! - `mirror walls`: the faces as mirrored slip walls (`WallTreatment::Mirror`, issue 14 item 1)
+//!   instead of slip colliders holding the nodes on and beyond them. The solution is odd in the
+//!   normal and even in the tangential components across every face, so mirrored walls leave
+//!   no boundary closure at all;
+//! - `mirror walls, dt/4`, `mirror walls, 4x4 ppc`, `mirror walls, cubic`: the single changes
+//!   again, on top of the mirrored walls.
 //!
-//! Measured (quick mode, Δx = 1/16 … 1/64, 2 threads): baseline 0.99, interior 1.00, dt/4 1.08,
-//! 4 × 4 ppc 0.98, cubic 0.99, PIC 0.80. So neither the walls, nor the time step, nor the
-//! particle quadrature, nor the kernel's order caps the rate. Two more ingredients were tried
-//! once with a temporary switch (not kept): the deformation gradient updated with the kernel
-//! gradient `Σ v_i ⊗ ∇w` instead of APIC's MLS `C` (rate 1.03), and the P2G stress force with
-//! `∇w` instead of MLS's `w M⁻¹ (x_i − x_p)` (1.03; both together 1.04): MLS-MPM's gradient
-//! approximation is not it either. What is left is what all variants share: the particle–grid
-//! round trip of every step on a freshly built grid (the lumped grid mass and the velocity
-//! interpolation back to the particles). TLMPM, whose `Transfer::Persistent` skips that round
-//! trip, reaches second order on its own manufactured solution (`mms_1d_tlmpm`).
+//! Measured (quick mode, Δx = 1/16 … 1/64, 2 threads):
 //!
-//! Acceptance records this finding, so the case fails when something lifts the rate and the
-//! conclusion must be revisited: the baseline rate lies in [0.8, 1.3], and each of `interior`,
-//! `dt/4`, `4x4 ppc` and `cubic` is within [`SAME_RATE`] of it.
+//! | variant | rate | error at Δx = 1/64 (m) |
+//! |---|---|---|
+//! | baseline | 0.99 | 1.90e-4 |
+//! | interior | 1.00 | 1.32e-4 |
+//! | dt/4 | 1.08 | 1.91e-4 |
+//! | 4 × 4 ppc | 0.98 | 2.09e-4 |
+//! | cubic | 0.99 | 4.05e-4 |
+//! | PIC | 0.80 | 8.49e-4 |
+//! | mirror walls | 1.11 | 1.48e-5 |
+//! | mirror walls, dt/4 | 2.01 | 1.38e-5 |
+//! | mirror walls, 4 × 4 ppc | 2.26 | 2.73e-6 |
+//! | mirror walls, cubic | 2.41 | 4.86e-6 |
+//!
+//! **What caps the order: two things, one behind the other.** First the walls: with the nodes on
+//! and beyond a face held, the quadratic B-splines of the nodes just inside miss the wall's
+//! reaction, and that closure error is 10–13 times the rest at every Δx. It is first order and
+//! it travels inward within the period, so measuring only the interior does not remove it, and
+//! while it dominates no other single change (time step, particles per cell, kernel) moves the
+//! rate; an earlier reading of the first six rows blamed the particle–grid round trip. Mirrored
+//! walls remove it (error 11–13 times smaller). What remains with 2 × 2 particles per cell and the
+//! quadratic kernel is still about first order between Δx = 1/32 and 1/64: the particle
+//! quadrature of particles that move across cells. It goes with 4 × 4 particles per cell
+//! (rate 2.26) or the smoother cubic kernel (2.41), both second order; the time step is not it
+//! (dt/4 leaves the finest error unchanged). The round trip is not a cap: with mirrored walls and
+//! enough quadrature MLS-MPM with APIC converges at second order.
+//!
+//! Acceptance records these findings, so the case fails when one stops holding: the baseline rate
+//! lies in [0.8, 1.3]; each of `interior`, `dt/4`, `4x4 ppc` and `cubic` is within [`SAME_RATE`]
+//! of it; mirrored walls cut the error at least [`MIRROR_GAIN`]-fold at every Δx; and mirrored
+//! walls with 4 × 4 particles per cell or with the cubic kernel converge at rate ≥
+//! [`MIN_RATE_LIFTED`].
 
 use super::assemble;
 use super::mms::{self, MmsConfig};
@@ -40,6 +63,13 @@ pub const NAME: &str = "explicit_order_cap";
 
 /// How close (in rate) a variant must stay to the baseline to count as "not the cap".
 pub const SAME_RATE: Real = 0.15;
+
+/// Least factor by which mirrored walls cut the baseline's error at every Δx (measured 11–13).
+pub const MIRROR_GAIN: Real = 5.0;
+
+/// Least rate of the variants that lift the cap (mirrored walls with 4 × 4 particles per cell or
+/// the cubic kernel; measured 2.26 and 2.41).
+pub const MIN_RATE_LIFTED: Real = 1.8;
 
 /// The variants: label and configuration.
 pub fn variants() -> Vec<(&'static str, MmsConfig)> {
@@ -54,9 +84,40 @@ pub fn variants() -> Vec<(&'static str, MmsConfig)> {
             },
         ),
         (
+            "mirror walls",
+            MmsConfig {
+                mirror_walls: true,
+                ..base
+            },
+        ),
+        (
             "dt/4",
             MmsConfig {
                 cfl: base.cfl / 4.0,
+                ..base
+            },
+        ),
+        (
+            "mirror walls, dt/4",
+            MmsConfig {
+                mirror_walls: true,
+                cfl: base.cfl / 4.0,
+                ..base
+            },
+        ),
+        (
+            "mirror walls, 4x4 ppc",
+            MmsConfig {
+                mirror_walls: true,
+                per_axis: 4,
+                ..base
+            },
+        ),
+        (
+            "mirror walls, cubic",
+            MmsConfig {
+                mirror_walls: true,
+                kernel: Kernel::Cubic,
                 ..base
             },
         ),
@@ -156,13 +217,31 @@ fn verdict(runs: Vec<Run>, failures: Vec<String>, rates: Vec<VariantRate>) -> Ca
             ));
         }
         let base = rate("baseline");
+        let points = |name: &str| {
+            rates
+                .iter()
+                .find(|r| r.0 == name)
+                .map_or(Vec::new(), |r| r.2.clone())
+        };
+        let gain = points("baseline")
+            .iter()
+            .zip(points("mirror walls"))
+            .map(|(b, m)| b.1 / m.1)
+            .fold(Real::INFINITY, Real::min);
         let ok = (0.8..=1.3).contains(&base)
             && ["interior", "dt/4", "4x4 ppc", "cubic"]
                 .iter()
-                .all(|v| (rate(v) - base).abs() <= SAME_RATE);
+                .all(|v| (rate(v) - base).abs() <= SAME_RATE)
+            && gain >= MIRROR_GAIN
+            && ["mirror walls, 4x4 ppc", "mirror walls, cubic"]
+                .iter()
+                .all(|v| rate(v) >= MIN_RATE_LIFTED);
         note.push_str(&format!(
-            " Acceptance (the finding above): baseline rate in [0.8, 1.3] and interior, dt/4, \
-             4x4 ppc and cubic within {SAME_RATE} of it ({}).",
+            " Acceptance (the findings in the case docs): baseline rate in [0.8, 1.3]; interior, \
+             dt/4, 4x4 ppc and cubic within {SAME_RATE} of it (the walls dominate); mirrored \
+             walls cut the error at least {MIRROR_GAIN}-fold at every Δx (least gain {gain:.1}); \
+             mirrored walls with 4x4 ppc and with the cubic kernel at rate ≥ {MIN_RATE_LIFTED} \
+             ({}).",
             if ok {
                 "holds"
             } else {

@@ -189,10 +189,14 @@ pub fn boundaries<const D: usize>(scene: &LoadedScene) -> Boundaries<D> {
             .as_deref()
             .map_or(Vector::<D>::zeros(), vector::<D>);
         let shape = match &b.geometry {
-            BoundaryGeometry::Walls { thickness } => {
+            BoundaryGeometry::Walls {
+                thickness,
+                treatment,
+            } => {
                 out.walls = Some(DomainWalls {
                     contact: c,
                     thickness: *thickness as usize,
+                    treatment: *treatment,
                 });
                 continue;
             }

@@ -9,14 +9,14 @@ use super::{
 };
 use crate::error::SceneError;
 use crate::scene::{
-    BoundaryGeometry, IntegratorKind, LinearSolverKind, LoadDef, LoadedScene, NodesDef, TlmpmDef,
-    TlmpmScene, TransferKind, FLIP_BLEND_DEFAULT,
+    BoundaryGeometry, IntegratorKind, LinearSolverKind, LoadDef, LoadedScene, NodesDef, PlaneSide,
+    TlmpmDef, TlmpmScene, TransferKind, FLIP_BLEND_DEFAULT,
 };
 use mpm_core::quasistatic::GravityRamp;
 use mpm_core::{Dim, DimOps, GridSpec, Particles, Vector};
 use mpm_tlmpm::{
-    ContactParams, ContactRadius, FixedRegion, ImplicitParams, LinearSolver, NewtonParams,
-    NodalLoad, NodeSelection, Obstacle, SurfaceTraction, TlmpmParams, Transfer,
+    ClampPlane, ContactParams, ContactRadius, FixedRegion, ImplicitParams, LinearSolver,
+    NewtonParams, NodalLoad, NodeSelection, Obstacle, SurfaceTraction, TlmpmParams, Transfer,
 };
 
 /// The scene keys of the TLMPM solver's parameter names (`SetupError::InvalidParameter`).
@@ -48,7 +48,7 @@ pub fn params<const D: usize>(
     let sc = &scene.scene;
     let t = &own.tlmpm;
     let walls = sc.boundaries.iter().filter_map(|b| match b.geometry {
-        BoundaryGeometry::Walls { thickness } => {
+        BoundaryGeometry::Walls { thickness, .. } => {
             let inset = thickness as f64 * spec.dx;
             Some(Obstacle::Walls {
                 min: spec.origin.add_scalar(inset),
@@ -97,6 +97,15 @@ pub fn params<const D: usize>(
             radius: ContactRadius::Fixed(t.contact_radius),
             obstacles,
         }),
+        clamp_planes: own
+            .clamp_planes
+            .iter()
+            .map(|p| ClampPlane {
+                axis: p.axis as usize,
+                position: p.position,
+                above: p.side == PlaneSide::Above,
+            })
+            .collect(),
         nodal_loads: own
             .nodal_loads
             .iter()

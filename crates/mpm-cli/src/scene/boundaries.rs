@@ -1,7 +1,7 @@
 //! `[[boundaries]]`: the walls of the grid box and colliders, with their contact rule.
 
 use super::Checker;
-use mpm_core::boundary::ContactKind;
+use mpm_core::boundary::{ContactKind, WallTreatment};
 use serde::{Deserialize, Serialize};
 
 /// Boundary kinds.
@@ -27,6 +27,7 @@ pub(crate) struct RawBoundary {
     friction: Option<f64>,
     velocity: Option<Vec<f64>>,
     thickness: Option<u32>,
+    treatment: Option<WallTreatment>,
     point: Option<Vec<f64>>,
     normal: Option<Vec<f64>>,
     min: Option<Vec<f64>>,
@@ -58,6 +59,8 @@ pub enum BoundaryGeometry {
     Walls {
         /// Node layers per face.
         thickness: u32,
+        /// How the layers act on the grid (explicit solver).
+        treatment: WallTreatment,
     },
     /// Half-space `(x − point)·normal ≤ 0`.
     HalfSpace {
@@ -108,11 +111,32 @@ pub(super) fn resolve_boundaries(
     boundaries
 }
 
+/// An error at the `treatment` key of mirrored walls in a scene of `solver`, which has its own
+/// wall treatment (mirrored walls act on the explicit solver's grid).
+pub(super) fn refuse_mirrored_walls(c: &mut Checker<'_>, boundaries: &[BoundaryDef], solver: &str) {
+    for (i, b) in boundaries.iter().enumerate() {
+        if let BoundaryGeometry::Walls {
+            treatment: WallTreatment::Mirror,
+            ..
+        } = b.geometry
+        {
+            c.err(
+                &format!("boundaries[{i}].treatment"),
+                format!(
+                    "mirrored walls act on the explicit solver's grid; solver \"{solver}\" has \
+                     its own wall treatment: leave out `treatment`"
+                ),
+            );
+        }
+    }
+}
+
 fn resolve_boundary(c: &mut Checker<'_>, i: usize, b: &RawBoundary, d: usize) -> BoundaryDef {
     let k = |name: &str| format!("boundaries[{i}].{name}");
     let kind_name = super::serde_plain(&b.kind);
     let present = [
         ("thickness", b.thickness.is_some()),
+        ("treatment", b.treatment.is_some()),
         ("point", b.point.is_some()),
         ("normal", b.normal.is_some()),
         ("min", b.min.is_some()),
@@ -122,7 +146,7 @@ fn resolve_boundary(c: &mut Checker<'_>, i: usize, b: &RawBoundary, d: usize) ->
         ("velocity", b.velocity.is_some()),
     ];
     let used: &[&str] = match b.kind {
-        BoundaryKind::Walls => &["thickness"],
+        BoundaryKind::Walls => &["thickness", "treatment"],
         BoundaryKind::HalfSpace => &["point", "normal", "velocity"],
         BoundaryKind::Box => &["min", "max", "velocity"],
         BoundaryKind::Sphere => &["center", "radius", "velocity"],
@@ -142,7 +166,21 @@ fn resolve_boundary(c: &mut Checker<'_>, i: usize, b: &RawBoundary, d: usize) ->
             if !(1..=16).contains(&t) {
                 c.err(&k("thickness"), format!("must lie in 1..=16 (got {t})"));
             }
-            BoundaryGeometry::Walls { thickness: t }
+            let treatment = b.treatment.unwrap_or_default();
+            if treatment == WallTreatment::Mirror {
+                let contact = b.contact.unwrap_or_default();
+                if contact == ContactKind::Separate || b.friction.is_some_and(|f| f != 0.0) {
+                    c.err(
+                        &k("treatment"),
+                        "mirrored walls reflect the grid across the wall plane, which needs \
+                         contact = \"slip\" or \"sticky\" without friction",
+                    );
+                }
+            }
+            BoundaryGeometry::Walls {
+                thickness: t,
+                treatment,
+            }
         }
         BoundaryKind::HalfSpace => {
             let point = need_vec(c, "point", &b.point);

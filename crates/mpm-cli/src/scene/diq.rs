@@ -241,6 +241,7 @@ fn check_common_tables(c: &mut Checker<'_>, transfer: TransferKind, boundaries: 
             "solver \"diq\" supports transfer = \"apic\"",
         );
     }
+    super::boundaries::refuse_mirrored_walls(c, boundaries, "diq");
     for (i, b) in boundaries.iter().enumerate() {
         if b.contact != ContactKind::Slip {
             c.err(

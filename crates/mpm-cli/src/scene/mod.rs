@@ -62,8 +62,8 @@ pub use simulation::{
     FLIP_BLEND_DEFAULT,
 };
 pub use tlmpm::{
-    FixedDef, IntegratorKind, LinearSolverKind, LoadDef, NodalLoadDef, NodesDef, TlmpmDef,
-    TlmpmScene, TractionDef,
+    ClampPlaneDef, FixedDef, IntegratorKind, LinearSolverKind, LoadDef, NodalLoadDef, NodesDef,
+    PlaneSide, TlmpmDef, TlmpmScene, TractionDef,
 };
 
 /// The top-level tables every scene may have, whatever its solver.

@@ -151,7 +151,7 @@ fn an_unknown_table_lists_every_table_a_scene_may_have() {
         p[0].2,
         "unknown field `couplingz`, expected one of `simulation`, `grid`, `materials`, \
          `bodies`, `boundaries`, `output`, `checkpoint`, `couplings`, `porous`, `mixing`, \
-         `dissolution`, `tlmpm`, `fixed`, `loads`, `nodal_loads`, `tractions`, `diq`"
+         `dissolution`, `tlmpm`, `fixed`, `clamp_planes`, `loads`, `nodal_loads`, `tractions`, `diq`"
     );
 }
 
@@ -414,4 +414,88 @@ fn rest_state_keys_belong_to_the_solvers_that_have_them() {
     let p = problems(&scene("solver = \"tlmpm\"", "geostatic = true\n", ""));
     assert_eq!(p.len(), 1, "{p:?}");
     assert_eq!(p[0].0, "bodies[0].geostatic");
+}
+
+#[test]
+fn mirrored_walls_are_the_explicit_solvers_and_need_a_reflecting_contact() {
+    use crate::scene::boundaries::BoundaryGeometry;
+    use mpm_core::boundary::WallTreatment;
+    let mirror = |text: String| {
+        text.replace(
+            "contact = \"slip\"",
+            "contact = \"slip\"\ntreatment = \"mirror\"",
+        )
+    };
+    let s = parsed(&mirror(scene("", "", "")));
+    assert_eq!(
+        s.scene.boundaries[0].geometry,
+        BoundaryGeometry::Walls {
+            thickness: 3,
+            treatment: WallTreatment::Mirror
+        }
+    );
+    // Separating contact and friction have no reflection.
+    for (from, to) in [
+        ("contact = \"slip\"", "contact = \"separate\""),
+        ("contact = \"slip\"", "contact = \"slip\"\nfriction = 0.3"),
+    ] {
+        let text = mirror(scene("", "", "")).replace(from, to);
+        let p = problems(&text);
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert_eq!(
+            (p[0].0.as_str(), p[0].1),
+            ("boundaries[0].treatment", line_of(&text, "treatment"))
+        );
+        assert!(p[0].2.contains("\"slip\" or \"sticky\""), "{}", p[0].2);
+    }
+    // TLMPM keeps bodies off walls by penalty contact and refuses the key.
+    let text = mirror(scene("solver = \"tlmpm\"", "", ""));
+    let p = problems(&text);
+    assert_eq!(p.len(), 1, "{p:?}");
+    assert_eq!(p[0].0, "boundaries[0].treatment");
+    // An unknown treatment lists the two.
+    let text = scene("", "", "").replace(
+        "contact = \"slip\"",
+        "contact = \"slip\"\ntreatment = \"ghost\"",
+    );
+    let p = problems(&text);
+    assert!(
+        p[0].2.contains("expected `nodes` or `mirror`"),
+        "{}",
+        p[0].2
+    );
+}
+
+#[test]
+fn clamp_planes_resolve_on_node_and_half_node_layers_only() {
+    let plane = |position: &str| {
+        scene(
+            "solver = \"tlmpm\"",
+            "",
+            &format!("[[clamp_planes]]\naxis = 0\nposition = {position}\nside = \"above\"\n"),
+        )
+    };
+    // dx = 0.05 from min = 0: node layers at k·0.05, half-node layers at 0.025 + k·0.05.
+    for position in ["0.05", "0.075"] {
+        let s = parsed(&plane(position));
+        let t = s.scene.tlmpm().unwrap();
+        assert_eq!(t.clamp_planes.len(), 1);
+        assert_eq!(t.clamp_planes[0].side, crate::scene::PlaneSide::Above);
+    }
+    let text = plane("0.06");
+    let p = problems(&text);
+    assert_eq!(p.len(), 1, "{p:?}");
+    assert_eq!(
+        (p[0].0.as_str(), p[0].1),
+        ("clamp_planes[0].position", line_of(&text, "position"))
+    );
+    let p = problems(&plane("0.05").replace("axis = 0", "axis = 2"));
+    assert_eq!(p[0].0, "clamp_planes[0].axis");
+    // The explicit solver has no reference grid to clamp.
+    let text = scene(
+        "",
+        "",
+        "[[clamp_planes]]\naxis = 0\nposition = 0.05\nside = \"above\"\n",
+    );
+    assert!(!problems(&text).is_empty());
 }

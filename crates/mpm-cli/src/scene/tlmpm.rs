@@ -43,6 +43,8 @@ pub(crate) struct RawTlmpmTables {
     #[serde(default)]
     pub(crate) fixed: Vec<RawFixed>,
     #[serde(default)]
+    clamp_planes: Vec<RawClampPlane>,
+    #[serde(default)]
     loads: Vec<RawLoad>,
     #[serde(default)]
     nodal_loads: Vec<RawNodalLoad>,
@@ -56,6 +58,7 @@ impl RawTlmpmTables {
         Self {
             tlmpm,
             fixed,
+            clamp_planes: Vec::new(),
             loads: Vec::new(),
             nodal_loads: Vec::new(),
             tractions: Vec::new(),
@@ -94,6 +97,24 @@ pub(crate) struct RawFixed {
     max: Vec<f64>,
     axes: Option<Vec<bool>>,
     velocity: Option<Vec<f64>>,
+}
+
+/// Which side of a clamp plane the material lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlaneSide {
+    /// `X_axis > position`.
+    Above,
+    /// `X_axis < position`.
+    Below,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawClampPlane {
+    axis: u32,
+    position: f64,
+    side: PlaneSide,
 }
 
 #[derive(Debug, Deserialize)]
@@ -180,6 +201,18 @@ pub struct FixedDef {
     pub velocity: Vec<f64>,
 }
 
+/// One `[[clamp_planes]]` entry: an exact clamp on a plane of the reference grid
+/// (`mpm_tlmpm::ClampPlane`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ClampPlaneDef {
+    /// Axis of the plane's normal (0 = x, 1 = y, 2 = z).
+    pub axis: u32,
+    /// Position of the plane along `axis` (m), on a grid node layer or midway between two.
+    pub position: f64,
+    /// The material's side.
+    pub side: PlaneSide,
+}
+
 /// One `[[loads]]` entry: a constant force on the particles initially in a box.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LoadDef {
@@ -250,6 +283,9 @@ pub struct TlmpmScene {
     /// `[[fixed]]`: Dirichlet regions of the reference grid.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub fixed: Vec<FixedDef>,
+    /// `[[clamp_planes]]`: exact clamps on grid planes.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub clamp_planes: Vec<ClampPlaneDef>,
     /// `[[loads]]`: constant forces on the particles.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub loads: Vec<LoadDef>,
@@ -262,8 +298,14 @@ pub struct TlmpmScene {
 }
 
 impl SolverTables for TlmpmScene {
-    const TABLES: &'static [&'static str] =
-        &["tlmpm", "fixed", "loads", "nodal_loads", "tractions"];
+    const TABLES: &'static [&'static str] = &[
+        "tlmpm",
+        "fixed",
+        "clamp_planes",
+        "loads",
+        "nodal_loads",
+        "tractions",
+    ];
     const KEYS: &'static [&'static str] = &[
         "simulation.gravity_ramp",
         "simulation.local_damping",
@@ -542,6 +584,42 @@ pub(crate) fn resolve_solid_tables(
             }
         })
         .collect();
+    let clamp_planes = raw
+        .clamp_planes
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let key = format!("clamp_planes[{i}]");
+            if p.axis as usize >= d {
+                c.err(
+                    &format!("{key}.axis"),
+                    format!("must be below dim = {d} (got {})", p.axis),
+                );
+            }
+            let position = c.num(
+                &format!("{key}.position"),
+                p.position,
+                |_| true,
+                "must be a finite number",
+            );
+            let origin = common.grid.min.get(p.axis as usize).copied().unwrap_or(0.0);
+            let twice = 2.0 * (position - origin) / dx;
+            if position.is_finite() && (twice - twice.round()).abs() > 1e-6 {
+                c.err(
+                    &format!("{key}.position"),
+                    format!(
+                        "must lie on a grid node layer or midway between two (grid.min + k dx/2, \
+                         dx = {dx} m)"
+                    ),
+                );
+            }
+            ClampPlaneDef {
+                axis: p.axis,
+                position,
+                side: p.side,
+            }
+        })
+        .collect();
     let loads: Vec<LoadDef> = raw
         .loads
         .iter()
@@ -625,6 +703,7 @@ pub(crate) fn resolve_solid_tables(
             reference_update,
         },
         fixed,
+        clamp_planes,
         loads,
         nodal_loads,
         tractions,
@@ -635,6 +714,7 @@ pub(crate) fn resolve_solid_tables(
 /// frictionless penalty obstacles. (Keys TLMPM does not read at all, such as `[[couplings]]` or
 /// `bodies[].phase`, are rejected by their owner's key list.)
 fn check_common_tables(c: &mut Checker<'_>, boundaries: &[BoundaryDef]) {
+    super::boundaries::refuse_mirrored_walls(c, boundaries, "tlmpm");
     for (i, b) in boundaries.iter().enumerate() {
         if b.contact == ContactKind::Sticky {
             c.err(

@@ -63,7 +63,7 @@ where
         }
         let n = x.len();
         let mass = vec![1000.0 * h.powi(D as i32); n];
-        let reference = ReferenceConfig::new(spec, kernel, &x, &mass).unwrap();
+        let reference = ReferenceConfig::new(spec, kernel, &[], &x, &mass).unwrap();
         let mut lo = Vector::<D>::from_element(-1.0);
         let mut hi = Vector::<D>::from_element(10.0);
         hi[0] = 0.3;

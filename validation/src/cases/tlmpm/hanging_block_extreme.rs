@@ -131,6 +131,7 @@ pub fn run(dx: Real, method: Method) -> Result<Run, String> {
                     friction: 0.0,
                 },
                 thickness: 2,
+                treatment: Default::default(),
             }),
             colliders: vec![Collider {
                 shape: ColliderShape::Box {

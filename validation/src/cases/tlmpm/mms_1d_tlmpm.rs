@@ -100,7 +100,7 @@ use mpm_core::{
     Columns, GridSpec, Kernel, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{BodyForce, ExplicitParams, ExplicitSolver};
-use mpm_tlmpm::{FixedRegion, ImplicitParams, NewtonParams, TlmpmParams, Transfer};
+use mpm_tlmpm::{ClampPlane, FixedRegion, ImplicitParams, NewtonParams, TlmpmParams, Transfer};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -212,6 +212,9 @@ pub struct Config {
     pub extended: bool,
     /// Whether `Δt ∝ Δx²` (else `Δt ∝ Δx`).
     pub dt_quadratic: bool,
+    /// Whether the ends are held by exact clamp planes ([`ClampPlane`], the basis folded
+    /// across the planes X = 0 and X = 1) instead of fixed nodes (TLMPM only).
+    pub clamp_planes: bool,
 }
 
 impl Config {
@@ -230,9 +233,14 @@ impl Config {
             Kernel::Cubic => "cubic",
         };
         format!(
-            "{}, {kernel}, {transfer}, {}, dt ~ dx{}",
+            "{}, {kernel}, {transfer}, {}{}, dt ~ dx{}",
             self.solver.name(),
             if self.extended { "extended bar" } else { "bar" },
+            if self.clamp_planes {
+                " held by clamp planes"
+            } else {
+                ""
+            },
             if self.dt_quadratic { "^2" } else { "" }
         )
     }
@@ -261,6 +269,11 @@ fn entries() -> Vec<Entry> {
         kernel,
         extended,
         dt_quadratic,
+        clamp_planes: false,
+    };
+    let planes = |config: Config| Config {
+        clamp_planes: true,
+        ..config
     };
     use Kernel::{Linear, Quadratic};
     use Solver::{ExplicitTlmpm as E, ImplicitTlmpm as I, MlsMpm as M};
@@ -315,6 +328,21 @@ fn entries() -> Vec<Entry> {
         },
         Entry {
             config: c(I, Persistent, Quadratic, true, true),
+            min_rate: second,
+            cells: (&[8, 16, 32], &[8, 16, 32, 64]),
+        },
+        Entry {
+            config: planes(c(E, Persistent, Quadratic, false, false)),
+            min_rate: second,
+            cells: CELLS,
+        },
+        Entry {
+            config: planes(c(E, Apic, Quadratic, false, false)),
+            min_rate: second,
+            cells: CELLS,
+        },
+        Entry {
+            config: planes(c(I, Persistent, Quadratic, false, true)),
             min_rate: second,
             cells: (&[8, 16, 32], &[8, 16, 32, 64]),
         },
@@ -377,22 +405,37 @@ fn run_tlmpm(
         axes: [x, !x],
         velocity: Vector::<2>::zeros(),
     };
-    let fixed = vec![
-        axis(false),
-        FixedRegion {
+    let mut fixed = vec![axis(false)];
+    let mut clamp_planes = Vec::new();
+    if cfg.clamp_planes {
+        clamp_planes = vec![
+            ClampPlane {
+                axis: 0,
+                position: lo,
+                above: true,
+            },
+            ClampPlane {
+                axis: 0,
+                position: hi,
+                above: false,
+            },
+        ];
+    } else {
+        fixed.push(FixedRegion {
             max: Vector::<2>::new(lo, far),
             ..axis(true)
-        },
-        FixedRegion {
+        });
+        fixed.push(FixedRegion {
             min: Vector::<2>::new(hi, -far),
             ..axis(true)
-        },
-    ];
+        });
+    }
     let params = TlmpmParams {
         kernel: cfg.kernel,
         transfer: cfg.transfer,
         time_step: TimeStepPolicy::Fixed { dt },
         fixed,
+        clamp_planes,
         ..TlmpmParams::default()
     };
     // Tight tolerances, so that the Newton error stays far below the discretisation error; at
@@ -560,6 +603,7 @@ pub fn run(k: usize, cfg: &Config, n: usize) -> Result<Run, String> {
         ("kernel".into(), cfg.kernel.support() as Real - 1.0),
         ("extended".into(), flag(cfg.extended)),
         ("dt_order".into(), if cfg.dt_quadratic { 2.0 } else { 1.0 }),
+        ("clamp_planes".into(), flag(cfg.clamp_planes)),
         ("max_l2".into(), out.max_l2),
         ("l2_interior".into(), interior),
     ]);
