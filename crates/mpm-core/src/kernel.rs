@@ -250,6 +250,37 @@ impl<const D: usize> Stencil<D> {
         (weight, grad)
     }
 
+    /// Makes the stencil's basis vanish on the plane `x_axis = plane` (grid units: `plane` is
+    /// `(X − origin)/Δx`), the material lying `above` it or below: along `axis` each node `i` on
+    /// the material side gets the factor `N(x − i) − N(x̄ − i)`, `x̄ = 2 plane − x` the particle's
+    /// mirror image, and nodes on the plane (within 10⁻⁹) or beyond it get 0. The new factor is
+    /// zero at `x = plane` for every node, whatever the plane's position relative to the nodes;
+    /// on the material side it is positive wherever `N(x − i)` is (the image is farther from the
+    /// node). Derivatives follow: `d/dx N(x̄ − i) = −N'(x̄ − i)`. Other axes are unchanged, so
+    /// planes on different axes compose into products that vanish on each. `kernel` must be the
+    /// stencil's kernel and `x` the particle's coordinate along `axis` in grid units.
+    pub fn reflect_odd(&mut self, kernel: Kernel, axis: usize, plane: Real, above: bool, x: Real) {
+        let (image_base, wi, dwi) = kernel.weights_1d(2.0 * plane - x);
+        for k in 0..self.support {
+            let node = self.base[axis] + k as i64;
+            let side = if above {
+                node as Real - plane
+            } else {
+                plane - node as Real
+            };
+            if side <= 1e-9 {
+                self.w[axis][k] = 0.0;
+                self.dw[axis][k] = 0.0;
+                continue;
+            }
+            let j = node - image_base;
+            if (0..self.support as i64).contains(&j) {
+                self.w[axis][k] -= wi[j as usize];
+                self.dw[axis][k] += dwi[j as usize];
+            }
+        }
+    }
+
     /// Calls `f(node, weight, gradient)` for every node of the stencil, in a fixed order
     /// (first axis fastest). `node` is the grid multi-index.
     #[inline]
@@ -489,6 +520,40 @@ mod tests {
                         let (_, g) = st.weight_gradient(&o);
                         let fd = (sp.weight_gradient(&o).0 - sm.weight_gradient(&o).0) / (2.0 * h);
                         assert_relative_eq!(g[a], fd, epsilon = 1e-6);
+                    }
+                }
+            }
+        }
+    }
+
+    /// `reflect_odd` makes every factor along the axis vanish on the plane, wherever the plane
+    /// lies between the nodes, and leaves positive factors on the material side.
+    #[test]
+    fn odd_reflection_vanishes_on_the_plane_and_stays_positive_beside_it() {
+        let spec = GridSpec::<2>::new(Vector::<2>::zeros(), 1.0, [12, 12]);
+        for kernel in [Kernel::Quadratic, Kernel::Cubic] {
+            for plane in [4.0, 4.5, 4.3, 4.9] {
+                for (d, above) in [(1e-12, true), (0.37, true), (-1e-12, false), (-0.61, false)] {
+                    let x = Vector::<2>::new(plane + d, 5.2);
+                    let mut st = Stencil::new(kernel, &spec, &x);
+                    st.reflect_odd(kernel, 0, plane, above, x.x);
+                    let mut total: Real = 0.0;
+                    st.for_each(|node, w, _| {
+                        let beyond = if above {
+                            node[0] as Real <= plane
+                        } else {
+                            node[0] as Real >= plane
+                        };
+                        assert!(w >= 0.0 && (!beyond || w == 0.0), "{kernel:?} {plane} {d}");
+                        total += w;
+                    });
+                    if d.abs() < 1e-9 {
+                        assert!(total < 1e-10, "{kernel:?} {plane}: {total}");
+                    } else {
+                        assert!(
+                            total > 0.01 && total < 1.0,
+                            "{kernel:?} {plane} {d}: {total}"
+                        );
                     }
                 }
             }

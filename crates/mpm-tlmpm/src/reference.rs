@@ -62,7 +62,7 @@ impl<const D: usize> ReferenceConfig<D> {
                 });
             }
         }
-        let mirrors = mirror_planes(&spec, planes, positions)?;
+        let mirrors = mirror_planes(&spec, kernel, planes, positions)?;
         let slots = kernel.support().pow(D as u32);
         let n = positions.len();
         // Pass 1: which grid nodes carry weight.
@@ -250,23 +250,25 @@ impl<const D: usize> ReferenceConfig<D> {
 }
 
 /// Dirichlet data on the active nodes and the numbering of the nodes that keep equations.
-/// A clamp plane in grid units: the axis, twice the plane's node coordinate (an integer: on a
-/// node layer or midway between two) and the material's side.
+/// A clamp plane in grid units: the axis, the plane's node coordinate and the material's side.
 #[derive(Clone, Copy, Debug)]
 struct Mirror {
     axis: usize,
-    twice: i64,
+    plane: Real,
     above: bool,
 }
 
-/// The clamp planes in grid units, checking that each lies on a node layer or midway between
-/// two, inside the grid, with every particle on its material side.
+/// The clamp planes in grid units, checking that each lies inside the grid on a node layer or
+/// midway between two, with every particle strictly on its material side, and that two planes
+/// on one axis lie at least one stencil width apart (each plane's reflection must not reach the
+/// other's nodes).
 fn mirror_planes<const D: usize>(
     spec: &GridSpec<D>,
+    kernel: Kernel,
     planes: &[ClampPlane],
     positions: &[Vector<D>],
 ) -> Result<Vec<Mirror>, SetupError> {
-    let mut out = Vec::with_capacity(planes.len());
+    let mut out: Vec<Mirror> = Vec::with_capacity(planes.len());
     for c in planes {
         let bad = |reason| {
             Err(SetupError::InvalidSetting {
@@ -277,13 +279,16 @@ fn mirror_planes<const D: usize>(
         if c.axis >= D {
             return bad(format!("axis must be below {D}"));
         }
-        let twice = 2.0 * (c.position - spec.origin[c.axis]) / spec.dx;
-        let k = twice.round();
-        if !((twice - k).abs() < 1e-6 && k >= 0.0 && k <= 2.0 * (spec.size[c.axis] - 1) as Real) {
+        let plane = (c.position - spec.origin[c.axis]) / spec.dx;
+        let aligned = (2.0 * plane - (2.0 * plane).round()).abs() < 1e-6;
+        if !(aligned && plane >= 0.0 && plane <= (spec.size[c.axis] - 1) as Real) {
             return bad(
-                "the plane must lie inside the grid, on a node layer or midway between two".into(),
+                "the plane must lie inside the grid, on a node layer or midway between two (see \
+                 ClampPlane: elsewhere the closure is first order)"
+                    .into(),
             );
         }
+        let plane = (2.0 * plane).round() / 2.0;
         // Strictly on the material side: there a folded weight is positive exactly where the
         // unfolded one is, so the active-node rule (positive weight) still holds.
         let on_side = |x: &Vector<D>| {
@@ -300,20 +305,28 @@ fn mirror_planes<const D: usize>(
                 if c.above { "above it" } else { "below it" }
             ));
         }
+        let width = kernel.support() as Real;
+        if out
+            .iter()
+            .any(|m| m.axis == c.axis && (m.plane - plane).abs() < width)
+        {
+            return bad(format!(
+                "another clamp plane on this axis lies closer than {width} cells"
+            ));
+        }
         out.push(Mirror {
             axis: c.axis,
-            twice: k as i64,
+            plane,
             above: c.above,
         });
     }
     Ok(out)
 }
 
-/// The stencil of a particle at `x` with the clamp planes folded in: each entry of a node beyond
-/// a plane is subtracted from the entry of its mirror node (which the stencil always holds for a
-/// particle on the material side) and zeroed, and an entry of a node on the plane is zeroed, so
-/// every entry is `φ_k = N_k − N_{mirror(k)}` (see [`ClampPlane`]). Zeroed entries keep their
-/// slot with weight 0, which leaves them out of the active nodes.
+/// The stencil of a particle at `x` with the clamp planes folded in (`Stencil::reflect_odd`):
+/// along each plane's axis every node's factor becomes `N(x − i) − N(x̄ − i)`, zero on the plane,
+/// so every entry vanishes there (see [`ClampPlane`]). Entries of nodes on or beyond a plane
+/// keep their slot with weight 0, which leaves them out of the active nodes.
 fn stencil_entries<const D: usize>(
     kernel: Kernel,
     spec: &GridSpec<D>,
@@ -322,32 +335,12 @@ fn stencil_entries<const D: usize>(
     entries: &mut Vec<([i64; D], Real, Vector<D>)>,
 ) {
     entries.clear();
-    Stencil::new(kernel, spec, x).for_each(|node, w, g| entries.push((node, w, g)));
+    let mut stencil = Stencil::new(kernel, spec, x);
     for m in mirrors {
-        for e in 0..entries.len() {
-            let (node, w, g) = entries[e];
-            // How far the node lies beyond the plane, in half cells (negative: material side).
-            let beyond = if m.above {
-                m.twice - 2 * node[m.axis]
-            } else {
-                2 * node[m.axis] - m.twice
-            };
-            if beyond < 0 || w == 0.0 {
-                continue;
-            }
-            entries[e].1 = 0.0;
-            entries[e].2 = Vector::<D>::zeros();
-            if beyond == 0 {
-                continue;
-            }
-            let mut image = node;
-            image[m.axis] = m.twice - node[m.axis];
-            if let Some(t) = entries.iter().position(|(n, _, _)| *n == image) {
-                entries[t].1 -= w;
-                entries[t].2 -= g;
-            }
-        }
+        let xh = (x[m.axis] - spec.origin[m.axis]) / spec.dx;
+        stencil.reflect_odd(kernel, m.axis, m.plane, m.above, xh);
     }
+    stencil.for_each(|node, w, g| entries.push((node, w, g)));
 }
 
 #[derive(Clone, Debug)]
@@ -487,13 +480,13 @@ mod tests {
 
     /// Issue 14 item 1: a clamp plane folds the basis so that every weight is
     /// `N_k(X) − N_k(X̄)`, `X̄` the particle's mirror image, which is zero on the plane: the
-    /// plane holds exactly whatever the node values. Checked on a node layer and midway between
+    /// plane holds exactly whatever the node values. Checked on node layers and midway between
     /// two, for the quadratic and the cubic spline, weights and gradients.
     #[test]
     fn clamp_planes_fold_the_basis_so_that_it_vanishes_on_the_plane() {
         let spec = GridSpec::<2>::new(Vector::<2>::new(-0.3, -0.3), 0.1, [14; 2]);
         for kernel in [Kernel::Quadratic, Kernel::Cubic] {
-            for plane in [0.0, 0.05] {
+            for plane in [0.0, 0.05, -0.1, 0.15] {
                 let c = ClampPlane {
                     axis: 0,
                     position: plane,
@@ -530,27 +523,33 @@ mod tests {
                     // Every node with a non-zero folded function is in the stencil.
                     let material = expect
                         .iter()
-                        .filter(|(n, (w, _))| {
-                            n[0] as Real * 0.1 - 0.3 > plane + 1e-12 && w.abs() > 1e-14
-                        })
+                        .filter(|(n, (w, _))| n[0] as Real * 0.1 - 0.3 > plane + 1e-12 && *w > 0.0)
                         .count();
                     assert_eq!(seen, material, "{kernel:?} {plane} {p}");
                 }
             }
         }
-        // A plane off the node and half-node layers, and a particle on the clamped side, are
-        // refused.
+        // A particle on the clamped side or on the plane, a plane outside the grid and two
+        // planes on one axis closer than a stencil width are refused.
         let x = vec![Vector::<2>::new(0.05, 0.4)];
         let at = |position, above| ClampPlane {
             axis: 0,
             position,
             above,
         };
-        for c in [at(0.03, true), at(0.0, false), at(0.05, true)] {
+        for c in [
+            vec![at(0.0, false)],
+            vec![at(0.05, true)],
+            vec![at(0.03, true)],
+            vec![at(-0.5, true)],
+            vec![at(0.0, true), at(0.2, false)],
+        ] {
             assert!(matches!(
-                ReferenceConfig::new(spec, Kernel::Quadratic, &[c], &x, &[1.0]),
+                ReferenceConfig::new(spec, Kernel::Quadratic, &c, &x, &[1.0]),
                 Err(SetupError::InvalidSetting { .. })
             ));
         }
+        let ok = [at(0.0, true), at(0.35, false)];
+        assert!(ReferenceConfig::new(spec, Kernel::Quadratic, &ok, &x, &[1.0]).is_ok());
     }
 }

@@ -475,20 +475,22 @@ fn clamp_planes_resolve_on_node_and_half_node_layers_only() {
             &format!("[[clamp_planes]]\naxis = 0\nposition = {position}\nside = \"above\"\n"),
         )
     };
-    // dx = 0.05 from min = 0: node layers at k·0.05, half-node layers at 0.025 + k·0.05.
+    // On a node layer (dx = 0.05 from min = 0) and midway between two.
     for position in ["0.05", "0.075"] {
         let s = parsed(&plane(position));
         let t = s.scene.tlmpm().unwrap();
         assert_eq!(t.clamp_planes.len(), 1);
         assert_eq!(t.clamp_planes[0].side, crate::scene::PlaneSide::Above);
     }
-    let text = plane("0.06");
-    let p = problems(&text);
-    assert_eq!(p.len(), 1, "{p:?}");
-    assert_eq!(
-        (p[0].0.as_str(), p[0].1),
-        ("clamp_planes[0].position", line_of(&text, "position"))
-    );
+    for bad in ["0.06", "nan"] {
+        let text = plane(bad);
+        let p = problems(&text);
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert_eq!(
+            (p[0].0.as_str(), p[0].1),
+            ("clamp_planes[0].position", line_of(&text, "position"))
+        );
+    }
     let p = problems(&plane("0.05").replace("axis = 0", "axis = 2"));
     assert_eq!(p[0].0, "clamp_planes[0].axis");
     // The explicit solver has no reference grid to clamp.

@@ -609,7 +609,8 @@ pub(crate) fn resolve_solid_tables(
                     &format!("{key}.position"),
                     format!(
                         "must lie on a grid node layer or midway between two (grid.min + k dx/2, \
-                         dx = {dx} m)"
+                         dx = {dx} m): elsewhere the clamp's closure is first order; shift \
+                         grid.min to align it"
                     ),
                 );
             }
