@@ -5,7 +5,7 @@ use crate::coupling::GeometryNeeds;
 use crate::multigrid::{CouplingKind, DiffusionScheme, PressureBuoyancy};
 use crate::params::{Transfer, VolumeUpdate};
 use crate::solver::ExplicitSolver;
-use mpm_core::boundary::Boundaries;
+use mpm_core::boundary::{Boundaries, WallTreatment};
 use mpm_core::{Dim, DimOps, Material, OnInstability, Stage, StagePlan};
 
 /// The stages a step of `solver` runs, in order, with the phases and couplings they involve;
@@ -167,8 +167,15 @@ fn boundary_text<const D: usize>(b: &Boundaries<D>) -> String {
     }
     let walls = match &b.walls {
         Some(w) => format!(
-            "domain walls ({:?}, friction {}, {} node layers), ",
-            w.contact.kind, w.contact.friction, w.thickness
+            "domain walls ({:?}, friction {}, {} node layers{}), ",
+            w.contact.kind,
+            w.contact.friction,
+            w.thickness,
+            match w.treatment {
+                WallTreatment::Nodes => "",
+                WallTreatment::Mirror =>
+                    ", mirrored: ghost layers folded after P2G, filled after the update",
+            }
         ),
         None => String::new(),
     };

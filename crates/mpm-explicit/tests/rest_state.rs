@@ -9,7 +9,7 @@ use mpm_core::boundary::{Boundaries, WallTreatment};
 use mpm_core::geostatic::set_geostatic;
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::quasistatic::{Damping, GravityRamp};
-use mpm_core::{GridSpec, Material, Matrix, Real, Solver, TimeStepPolicy, Vector};
+use mpm_core::{GridSpec, Material, Matrix, Real, Solver, Stage, TimeStepPolicy, Vector};
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 
 const WIDTH: Real = 0.2;
@@ -171,10 +171,21 @@ fn mirrored_walls_give_the_bottom_layer_its_hydrostatic_pressure() {
     };
     let ramp = Some(GravityRamp { duration: 0.05 });
     let [nodes, mirror] = [WallTreatment::Nodes, WallTreatment::Mirror].map(|t| {
-        run(
-            &mut column_with(Material::Fluid(fluid()), damping, ramp, false, t),
-            0.3,
-        )
+        let mut solver = column_with(Material::Fluid(fluid()), damping, ramp, false, t);
+        // `check` names the treatment in the grid update's line.
+        let update = solver
+            .plan()
+            .stages
+            .iter()
+            .find(|s| s.stage == Stage::GridUpdate)
+            .cloned();
+        let detail = update.map(|s| s.detail).unwrap_or_default();
+        assert_eq!(
+            detail.contains("mirrored"),
+            t == WallTreatment::Mirror,
+            "{detail}"
+        );
+        run(&mut solver, 0.3)
     });
     eprintln!(
         "bottom-layer error at rest: wall nodes {:+.4}, mirrored walls {:+.2e} (ranges {:.1e}, \

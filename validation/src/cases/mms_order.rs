@@ -15,36 +15,43 @@
 //!   instead of slip colliders holding the nodes on and beyond them. The solution is odd in the
 //!   normal and even in the tangential components across every face, so mirrored walls leave
 //!   no boundary closure at all;
-//! - `mirror walls, dt/4`, `mirror walls, 4x4 ppc`, `mirror walls, cubic`: the single changes
-//!   again, on top of the mirrored walls.
+//! - `mirror walls, dt/4`, `mirror walls, 4x4 ppc`, `mirror walls, 4x4 ppc, dt/4`,
+//!   `mirror walls, cubic`: the single changes again, on top of the mirrored walls.
 //!
-//! Measured (quick mode, Δx = 1/16 … 1/64, 2 threads):
+//! Measured (full mode, Δx = 1/16 … 1/128, 2 threads; quick mode stops at 1/64):
 //!
-//! | variant | rate | error at Δx = 1/64 (m) |
+//! | variant | rate | error at Δx = 1/64, 1/128 (m) |
 //! |---|---|---|
-//! | baseline | 0.99 | 1.90e-4 |
-//! | interior | 1.00 | 1.32e-4 |
-//! | dt/4 | 1.08 | 1.91e-4 |
-//! | 4 × 4 ppc | 0.98 | 2.09e-4 |
-//! | cubic | 0.99 | 4.05e-4 |
-//! | PIC | 0.80 | 8.49e-4 |
-//! | mirror walls | 1.11 | 1.48e-5 |
-//! | mirror walls, dt/4 | 2.01 | 1.38e-5 |
-//! | mirror walls, 4 × 4 ppc | 2.26 | 2.73e-6 |
-//! | mirror walls, cubic | 2.41 | 4.86e-6 |
+//! | baseline | 0.99 | 1.90e-4, 9.59e-5 |
+//! | interior | 0.99 | 1.32e-4, 6.75e-5 |
+//! | dt/4 | 1.05 | 1.91e-4, 9.59e-5 |
+//! | 4 × 4 ppc | 0.99 | 2.09e-4, 1.04e-4 |
+//! | cubic | 0.99 | 4.05e-4, 2.02e-4 |
+//! | PIC | 0.84 | 8.49e-4, 4.50e-4 |
+//! | mirror walls | 0.93 | 1.48e-5, 9.93e-6 |
+//! | mirror walls, dt/4 | 1.49 | 1.38e-5, 9.65e-6 |
+//! | mirror walls, 4 × 4 ppc | 1.85 | 2.73e-6, 1.36e-6 |
+//! | mirror walls, 4 × 4 ppc, dt/4 | 2.53 | 4.58e-6, 1.17e-6 |
+//! | mirror walls, cubic | 2.29 | 4.86e-6, 1.16e-6 |
 //!
-//! **What caps the order: two things, one behind the other.** First the walls: with the nodes on
-//! and beyond a face held, the quadratic B-splines of the nodes just inside miss the wall's
-//! reaction, and that closure error is 10–13 times the rest at every Δx. It is first order and
-//! it travels inward within the period, so measuring only the interior does not remove it, and
-//! while it dominates no other single change (time step, particles per cell, kernel) moves the
-//! rate; an earlier reading of the first six rows blamed the particle–grid round trip. Mirrored
-//! walls remove it (error 11–13 times smaller). What remains with 2 × 2 particles per cell and the
-//! quadratic kernel is still about first order between Δx = 1/32 and 1/64: the particle
-//! quadrature of particles that move across cells. It goes with 4 × 4 particles per cell
-//! (rate 2.26) or the smoother cubic kernel (2.41), both second order; the time step is not it
-//! (dt/4 leaves the finest error unchanged). The round trip is not a cap: with mirrored walls and
-//! enough quadrature MLS-MPM with APIC converges at second order.
+//! **What caps the order: the walls first, then the particle quadrature, then the time step.**
+//! - The walls. With the nodes on and beyond a face held, the quadratic B-splines of the nodes
+//!   just inside miss the wall's reaction; that closure error is 10–13 times the rest at every
+//!   Δx, first order, and it travels inward within the period, so measuring only the interior
+//!   does not remove it. While it dominates no other single change (time step, particles per
+//!   cell, kernel) moves the rate; an earlier reading of the first six rows blamed the
+//!   particle–grid round trip. Mirrored walls remove it (errors 10–13 times smaller).
+//! - The particle quadrature. With mirrored walls, 2 × 2 particles per cell and the quadratic
+//!   kernel level off near 10⁻⁵ (first order or worse from Δx = 1/32): the quadrature of
+//!   particles that move across cells. 4 × 4 particles per cell or the smoother cubic kernel
+//!   bring second order to Δx = 1/64 (and the cubic kernel to 1/128, 2.07 on the finest pair).
+//! - The time step. With 4 × 4 particles per cell the finest pair drops to first order again
+//!   (2.73e-6 → 1.36e-6); a four times smaller step restores it (4.58e-6 → 1.17e-6, 1.97):
+//!   symplectic Euler's O(Δt) error, with Δt ∝ Δx, shows at about 10⁻⁶.
+//!
+//! The smaller step makes the coarse grids worse (2.2e-4 against 6.3e-5 at Δx = 1/16): four
+//! times the steps, four times a per-step loss, which is what the transfer round trip does on
+//! coarse grids; it falls much faster than Δx, so it is not an asymptotic cap.
 //!
 //! Acceptance records these findings, so the case fails when one stops holding: the baseline rate
 //! lies in [0.8, 1.3]; each of `interior`, `dt/4`, `4x4 ppc` and `cubic` is within [`SAME_RATE`]
@@ -110,6 +117,15 @@ pub fn variants() -> Vec<(&'static str, MmsConfig)> {
             MmsConfig {
                 mirror_walls: true,
                 per_axis: 4,
+                ..base
+            },
+        ),
+        (
+            "mirror walls, 4x4 ppc, dt/4",
+            MmsConfig {
+                mirror_walls: true,
+                per_axis: 4,
+                cfl: base.cfl / 4.0,
                 ..base
             },
         ),
