@@ -127,7 +127,13 @@ impl<const D: usize> MirrorWalls<D> {
     }
 
     /// Calls `f(ghost, mirror, sign)` for every ghost node of every face, face by face in order.
-    fn for_each_pair(&self, mut f: impl FnMut(usize, usize, &Vector<D>)) {
+    fn for_each_pair(&self, f: impl FnMut(usize, usize, &Vector<D>)) {
+        self.for_each_layer(1, f);
+    }
+
+    /// Calls `f(ghost, mirror, sign)` for the layers `first..=ghosts` beyond each face's plane,
+    /// face by face in order; layer 0 is the plane itself (`ghost == mirror`).
+    fn for_each_layer(&self, first: usize, mut f: impl FnMut(usize, usize, &Vector<D>)) {
         let size = self.size;
         let strides: [usize; D] = std::array::from_fn(|a| size[..a].iter().product());
         let total: usize = size.iter().product();
@@ -135,7 +141,7 @@ impl<const D: usize> MirrorWalls<D> {
             let (a, stride) = (face.axis, strides[face.axis]);
             // Every node of the slab: index along `a` fixed, the others free.
             let others = total / size[a];
-            for k in 1..=face.ghosts {
+            for k in first..=face.ghosts {
                 let (ghost, mirror) = if face.low {
                     (face.plane - k, face.plane + k)
                 } else {
@@ -173,6 +179,21 @@ impl<const D: usize> MirrorWalls<D> {
             mass[k] += m;
             mass[g] = 0.0;
         });
+    }
+
+    /// Makes a mass field mirror-symmetric for interpolation (the grid density of the volume
+    /// re-estimation), as if the material's mirror image lay beyond each wall plane: face by
+    /// face, each ghost's mass is added to its mirror node and a node on the plane, its own
+    /// image, doubles; then each ghost takes its mirror's mass. A stencil that reaches across the
+    /// plane then sees no density deficit.
+    pub fn mirror_mass(&self, mass: &mut [Real]) {
+        self.for_each_layer(0, |g, k, _| {
+            mass[k] += mass[g];
+            if g != k {
+                mass[g] = 0.0;
+            }
+        });
+        self.for_each_pair(|g, k, _| mass[g] = mass[k]);
     }
 
     /// Sets every ghost's velocity to the reflected velocity of its mirror node (after the

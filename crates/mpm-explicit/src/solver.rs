@@ -354,6 +354,9 @@ where
         let (spec, kernel) = (&self.spec, self.params.kernel);
         for (blocks, grid) in self.ws.blocks.iter_mut().zip(self.ws.grids.iter_mut()) {
             p2g::p2g_mass(spec, kernel, &self.particles, blocks, grid);
+            if let Some(m) = &self.mirror {
+                m.mirror_mass(&mut grid.mass);
+            }
         }
         let Particles {
             x,
@@ -788,7 +791,6 @@ where
     }
 }
 
-/// The per-particle material resolver of a scene.
 /// Folds the mirrored ghost layers of `grid` (and of the momentum without forces `momentum0`)
 /// into their mirror nodes after P2G; `gravity_impulse` is `Δt g` (m/s).
 fn fold_ghosts<const D: usize>(
@@ -817,6 +819,7 @@ fn fill_ghosts<const D: usize>(
     }
 }
 
+/// The per-particle material resolver of a scene.
 fn material_view<'a, const D: usize>(
     materials: &'a [Material],
     params: &'a ExplicitParams<D>,
