@@ -40,7 +40,7 @@ use crate::error::StepError;
 use crate::newton::{minimize, Indefinite, NewtonInfo, NewtonWork, Objective};
 use crate::params::{ImplicitParams, LinearSolver, TimeScheme, TlmpmParams};
 use crate::potential::{deformation, internal_force, tensor_len, Potential};
-use crate::reference::ReferenceConfig;
+use crate::reference::{Constraints, ReferenceConfig};
 use mpm_core::solver::{SolveInfo, StageTime, StepInfo};
 use mpm_core::{
     Diagnostics, Dim, DimOps, GridSpec, Location, Material, Matrix, Particles, Real, SetupError,
@@ -92,6 +92,10 @@ struct ObjectiveWork<const D: usize> {
     jacobi: Jacobi<Vector<D>>,
     rhs: Vec<Vector<D>>,
     cg: CgWorkspace<Vector<D>>,
+    /// Whether `sparse` holds the numeric Cholesky factor of a tangent of the current attempt.
+    factored: bool,
+    /// Chord iterations: directions reuse that factor instead of a new tangent.
+    frozen: bool,
 }
 
 /// Scratch memory of the implicit solver, reused by every step.
@@ -320,6 +324,7 @@ where
             self.analyse()
                 .map_err(|e| Failure::Solve(Stage::Solve, linear_error(e)))?;
         }
+        self.ws.objective.factored = false;
         let (core, ws, stats, times) = (
             &mut self.core,
             &mut self.ws,
@@ -334,6 +339,13 @@ where
     /// the last solution, so that [`Self::node_velocities`] become the elastic response to the
     /// forces a coupling projection applies (the partitioned iteration of DIQ-MPM's coupled
     /// step). Call after [`Self::elastic_predictor`] of the same attempt.
+    ///
+    /// With the Cholesky solver the re-solve first runs chord iterations: Newton's iteration
+    /// with the factor of the attempt's last tangent kept (a triangular solve per iteration, no
+    /// new tangent or factorisation), to the same tolerance, at most 8 times. The change between
+    /// passes is a force increment, linear in the potential, so the old tangent is close and the
+    /// chord converges in a few iterations; when it does not, the full Newton re-solve runs from
+    /// the same start.
     pub fn resolve_with_node_forces(
         &mut self,
         dt: Real,
@@ -343,16 +355,22 @@ where
             *f += d;
         }
         let warm = self.core.displacement.clone();
-        let (core, ws, times, implicit) = (
-            &mut self.core,
-            &mut self.ws,
-            &mut self.newton_times,
-            &self.implicit,
-        );
+        let (core, ws, times) = (&mut self.core, &mut self.ws, &mut self.newton_times);
+        let chord = ws.objective.factored;
+        let implicit = self.implicit;
         self.stats.time(Stage::Solve, || {
-            solve_grid(core, ws, times, implicit, dt, Some(&warm))
-        })?;
-        Ok(())
+            if chord {
+                let mut params = implicit;
+                params.newton.max_iterations = params.newton.max_iterations.min(CHORD_ITERATIONS);
+                ws.objective.frozen = true;
+                let r = solve_grid(core, ws, times, &params, dt, Some(&warm));
+                ws.objective.frozen = false;
+                if r.is_ok() {
+                    return Ok(());
+                }
+            }
+            solve_grid(core, ws, times, &implicit, dt, Some(&warm)).map(|_| ())
+        })
     }
 
     /// The node velocities of the current attempt (m/s), `u_i/Δt` per active node, after
@@ -578,6 +596,10 @@ where
     Ok((newton, contact))
 }
 
+/// Most chord iterations of [`ImplicitTlmpm::resolve_with_node_forces`] before it falls back to
+/// Newton's method.
+const CHORD_ITERATIONS: u32 = 8;
+
 /// Stage: Newton on the incremental potential of the time scheme for the node displacements,
 /// from the scheme's predictor or, when given, from the displacements `warm` (m).
 fn solve_grid<const D: usize>(
@@ -640,6 +662,31 @@ where
     core.check_displacements()?;
     end_velocities(core, implicit.scheme, dt);
     Ok(info)
+}
+
+/// The Newton direction `d = −H⁻¹ r` (m) with the Cholesky factor held by `sys`, on the free
+/// components of the active nodes (`r`: the residual, N).
+fn solve_factored<const D: usize>(
+    sys: &mut SparseSystem,
+    constraints: &Constraints<D>,
+    r: &[Vector<D>],
+    d: &mut [Vector<D>],
+) -> Result<(), String> {
+    let nodes = constraints.dofs.nodes();
+    for (e, &j) in nodes.iter().enumerate() {
+        for a in 0..D {
+            sys.rhs[e * D + a] = -r[j][a];
+        }
+    }
+    sys.cholesky
+        .solve_in_place(&mut sys.rhs)
+        .map_err(|e| e.to_string())?;
+    d.iter_mut().for_each(|x| *x = Vector::<D>::zeros());
+    for (e, &j) in nodes.iter().enumerate() {
+        let x = Vector::<D>::from_fn(|a, _| sys.rhs[e * D + a]);
+        d[j] = x.component_mul(&constraints.mask[j]);
+    }
+    Ok(())
 }
 
 /// The incremental potential of one step with the scratch memory and linear solver that
@@ -734,6 +781,17 @@ where
         d: &mut [Vector<D>],
         project: bool,
     ) -> Result<Result<u32, Indefinite>, String> {
+        if self.ws.frozen {
+            let t = Instant::now();
+            let sys = self
+                .ws
+                .sparse
+                .as_mut()
+                .ok_or("sparse system not analysed")?;
+            solve_factored(sys, self.pot.constraints, r, d)?;
+            self.times.linear_solve += t.elapsed();
+            return Ok(Ok(0));
+        }
         let t = Instant::now();
         self.update_deformation(u);
         let np = self.ws.def_grad.len();
@@ -748,6 +806,7 @@ where
             jacobi,
             rhs,
             cg,
+            factored,
             ..
         } = &mut *self.ws;
         let pot = &self.pot;
@@ -762,26 +821,14 @@ where
                 let t = Instant::now();
                 let factor = sys.cholesky.factorize(&sys.matrix);
                 self.times.factorization += t.elapsed();
+                *factored = factor.is_ok();
                 match factor {
                     Ok(()) => {}
                     Err(CholeskyError::NotPositiveDefinite { .. }) => return Ok(Err(Indefinite)),
                     Err(e) => return Err(e.to_string()),
                 }
                 let t = Instant::now();
-                let nodes = pot.constraints.dofs.nodes();
-                for (e, &j) in nodes.iter().enumerate() {
-                    for a in 0..D {
-                        sys.rhs[e * D + a] = -r[j][a];
-                    }
-                }
-                sys.cholesky
-                    .solve_in_place(&mut sys.rhs)
-                    .map_err(|e| e.to_string())?;
-                d.iter_mut().for_each(|x| *x = Vector::<D>::zeros());
-                for (e, &j) in nodes.iter().enumerate() {
-                    let x = Vector::<D>::from_fn(|a, _| sys.rhs[e * D + a]);
-                    d[j] = x.component_mul(&pot.constraints.mask[j]);
-                }
+                solve_factored(sys, pot.constraints, r, d)?;
                 self.times.linear_solve += t.elapsed();
                 Ok(Ok(0))
             }
