@@ -320,7 +320,7 @@ fn example_scenes_check_and_start() {
         let o = cli(&["check", &p.to_string_lossy()]);
         assert_eq!(o.status.code(), Some(0), "{}: {}", p.display(), stderr(&o));
         // The same scene, cut to a few steps.
-        let text = std::fs::read_to_string(&p).expect("read");
+        let text = example_scene_text(&p);
         let short: Vec<String> = text
             .lines()
             .map(|l| {
@@ -337,7 +337,7 @@ fn example_scenes_check_and_start() {
         let out = run_scene(&d, &name, &short.join("\n"));
         assert_eq!(numbered_files(&out, "snap_").len(), 4, "{name}");
     }
-    assert_eq!(count, 27, "the twenty-seven example scenes");
+    assert_eq!(count, 29, "the twenty-nine example scenes");
 }
 
 #[test]

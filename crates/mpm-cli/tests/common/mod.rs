@@ -143,6 +143,19 @@ pub fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
 }
 
+/// The text of an example scene with its mesh `file = "…"` lines made absolute: mesh files are
+/// relative to the scene's directory, which a copy of the scene elsewhere leaves.
+pub fn example_scene_text(path: &Path) -> String {
+    let text = std::fs::read_to_string(path).expect("read scene");
+    text.lines()
+        .map(|l| match l.strip_prefix("file = \"") {
+            Some(rest) => format!("file = \"{}/{rest}", scenes_dir().display()),
+            None => l.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// A fresh, empty temporary directory unique to this test process and `name`.
 pub fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("mpm-cli-test-{}-{name}", std::process::id()));
