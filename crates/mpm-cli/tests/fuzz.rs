@@ -204,7 +204,7 @@ fn mutated_scenes_never_panic() {
     let (mut ok, mut parse_err, mut build_err) = (0, 0, 0);
     for (name, text) in &corpus {
         // The example scenes' OBJ meshes (hundreds of triangles, thousands of particles) take
-        // about 40 ms to build; a hundred mutations of those keep the test near 20 s.
+        // about 40 ms to build; a hundred mutations of those keep the test near 30 s.
         let per_scene = if text.contains("/meshes/") { 100 } else { 1000 };
         for i in 0..per_scene {
             // One to three mutations on top of each other.
