@@ -222,7 +222,7 @@ fn solid_tables_are_checked_in_diq_scenes() {
                 "name = \"block\"\nmodel = \"neo_hookean\"\nE = 1e5\nnu = 0.3\ndensity = 500.0",
                 "name = \"block\"\npreset = \"snow\"",
             ),
-            "plastic solids are not coupled to the DIQ fluid yet",
+            "needs A-ULMPM reference updates with solver \"diq\"",
         ),
     ];
     for (i, (text, message)) in cases.iter().enumerate() {

@@ -95,13 +95,35 @@
 //! again from 0 and the solid cells are re-binned. The interface rows need nothing new: `H^s`
 //! is integrated at the particles' positions in the current reference with its weights, which
 //! is Eq. 38's map back. Checkpoints carry `F^(r,n)` and `F^(0,r)` ([`RELATIVE_F`],
-//! [`BASE_F`]) and the update count. Plastic solids are not coupled yet.
+//! [`BASE_F`]) and the update count.
+//!
+//! # Plastic solids (Table 1's soil; not in the paper's equations)
+//!
+//! A-ULMPM's plastic solids (snow's clamped stretches, Drucker–Prager sand) keep
+//! `F_E = F^(r,n) B` with the base `B` moved by every return mapping ([`mpm_tlmpm`]'s
+//! `adaptive` module). Eq. 37 as printed measures the volume term from `J^(r,n) = det F^(r,n)`
+//! on `V^r = V⁰ det B`; with plastic flow that is inconsistent twice over: `B` (so `V^r`)
+//! changes every step, and the plastic part of a step's volume change never leaves `P^s` (a
+//! sand grain pulled apart would keep the tension `−λ^v ΔJ` until the next reference update).
+//! The volume energy that belongs to an elasto-plastic solid is the elastic one,
+//! `Σ_p V⁰_p Ψ^v(J_E,p)` with `J_E = det F_E`, and that is what plastic particles carry:
+//!
+//! - `G^s` and `S^s` use `V⁰_p` for the volume and the remapped `J_p = J_E,p` (since
+//!   `∂J_E/∂F^(r,n) = J_E F^(r,n)⁻ᵀ` with `B` frozen over the step, `G^s` keeps its form with
+//!   `V⁰ J_E` in place of `V^r J^(r,n)`, the same number for an elastic particle);
+//! - after G2P the return mapping has scaled `J_E` by `r = det F_E / det F_E^trial =
+//!   det B^new / det B`; the remap follows, `1 − P/λ^v ← r (1 − P/λ^v)`, i.e.
+//!   `P ← λ^v − r (λ^v − P)` (so a grain whose elastic volume is reset to 1 has `P = 0`);
+//! - a reference update leaves `F_E` and so `P^s` unchanged (no reset to 0).
+//!
+//! Elastic particles follow Eq. 37 as before, bitwise.
 
 use crate::fluid::{Attempt, Bins, DiqFluid, DiqParams, NodeFields, Points};
 use crate::pressure::{Constraints, PressureError, PressureInfo, PressureSystem, UnknownKind};
 use crate::Domain;
 use mpm_core::boundary::Boundaries;
 use mpm_core::columns::{self, Column};
+use mpm_core::material::Plasticity;
 use mpm_core::neighbors::CellList;
 use mpm_core::solver::{DtBound, FieldInfo, RestoreError, StageTime};
 use mpm_core::timestep::choose_dt;
@@ -282,6 +304,9 @@ pub struct DiqCoupled<const D: usize> {
     solid_index: Vec<usize>,
     /// `λ^v = λ/2` of each solid particle (Pa).
     lambda_v: Vec<Real>,
+    /// Whether each solid particle's material is plastic: its volume term is measured from the
+    /// elastic volume ratio `J_E` (module docs, "Plastic solids").
+    plastic: Vec<bool>,
     /// Mixed pressure `P^s` of each solid particle (Pa).
     solid_pressure: Vec<Real>,
     /// Reference cell of each solid particle and the particles of each cell, in order.
@@ -398,9 +423,13 @@ where
             });
         }
         let mut lambda_v = Vec::with_capacity(solid_index.len());
+        let mut plastic = Vec::with_capacity(solid_index.len());
         for &p in &solid_index {
             let lambda = match &materials[particles.material[p] as usize] {
-                Material::Solid(s) => s.elastic.lame().lambda,
+                Material::Solid(s) => {
+                    plastic.push(!matches!(s.plasticity, Plasticity::None));
+                    s.elastic.lame().lambda
+                }
                 Material::Fluid(_) => unreachable!("partitioned above"),
             };
             if !(lambda > 0.0 && lambda.is_finite()) {
@@ -448,6 +477,7 @@ where
             fluid_index,
             solid_index,
             lambda_v,
+            plastic,
             solid_pressure: vec![0.0; n_solid],
             solid_cells: Vec::new(),
             projection: PressureSystem::new(),
@@ -564,7 +594,12 @@ where
         }
         plan.push(
             Stage::Commit,
-            "write checked updates; P^s to particles, J^s remapped",
+            if self.plastic.contains(&true) {
+                "write checked updates; P^s to particles, J^s remapped, plastic P^s scaled with \
+                 the return mapping's det F_E / det F_E^trial"
+            } else {
+                "write checked updates; P^s to particles, J^s remapped"
+            },
         );
         if let Some(r) = &self.solid_params.tlmpm.reference_update {
             plan.push(
@@ -723,8 +758,17 @@ where
         let jac = self.solid_jacobian();
         // With A-ULMPM (§5.4, Eq. 37) the volume term is measured from the current reference:
         // F^(r,n), its reference gradients and the reference volumes V^r = V⁰ det F^(0,r).
+        // Plastic particles carry Ψ^v(J_E) on V⁰ instead (module docs, "Plastic solids").
         let rel = self.solid.relative_def_grads();
-        let volume = self.solid.reference_volumes();
+        let mut volume = self.solid.reference_volumes();
+        for ((v, v0), _) in volume
+            .iter_mut()
+            .zip(&sp.volume0)
+            .zip(&self.plastic)
+            .filter(|(_, &plastic)| plastic)
+        {
+            *v = *v0;
+        }
         type Row<const D: usize> = (Vec<(usize, Vector<D>)>, Real, Real);
         let built: Vec<Row<D>> = self
             .solid_cells
@@ -927,6 +971,7 @@ where
                 }
             }
         }
+        self.plastic_pressure_correction(&mut solid_pressure);
         let mut solves = vec![
             SolveInfo {
                 name: "coupled_pressure",
@@ -945,6 +990,21 @@ where
             interface_points: iq.particle.len(),
             contact_pairs: contact.map(|c| c.pairs),
         })
+    }
+
+    /// Plastic particles (module docs, "Plastic solids"): the return mapping scaled the elastic
+    /// volume ratio by `r = det F_E / det F_E^trial`, so the remapped `J_E = 1 − P/λ^v` becomes
+    /// `r J_E`, i.e. `P ← λ^v − r (λ^v − P)`. Elastic particles are left as they are.
+    fn plastic_pressure_correction(&self, solid_pressure: &mut [Real]) {
+        let Some(factors) = self.solid.plastic_volume_factors() else {
+            return;
+        };
+        for (p, pressure) in solid_pressure.iter_mut().enumerate() {
+            if self.plastic[p] {
+                let lv = self.lambda_v[p];
+                *pressure = lv - factors[p] * (lv - *pressure);
+            }
+        }
     }
 
     /// The coupled projection of the predictor velocities `u` (fluid nodes, then the solid's
@@ -1140,9 +1200,17 @@ where
         self.solid_pressure = pending.solid_pressure;
         if updated {
             // A-ULMPM moved the reference: its cells hold other particles, and the volume term
-            // of Eq. 37 starts again from J^(r,n) = 1, i.e. P^s = 0.
+            // of Eq. 37 starts again from J^(r,n) = 1, i.e. P^s = 0. A plastic particle's J_E
+            // does not change with the reference, nor does its pressure.
             self.bin_solid_cells();
-            self.solid_pressure.fill(0.0);
+            for (pressure, _) in self
+                .solid_pressure
+                .iter_mut()
+                .zip(&self.plastic)
+                .filter(|(_, &plastic)| !plastic)
+            {
+                *pressure = 0.0;
+            }
         }
         self.time += dt;
         self.steps += 1;

@@ -161,6 +161,21 @@ where
         }
     }
 
+    /// After [`Self::plastic_update`]: the factor `det F_E / det F_E^trial = det B^new / det B`
+    /// by which each particle's return mapping changed its elastic volume (1 for elastic
+    /// particles, whose base does not change).
+    pub fn plastic_volume_factors(&self) -> Vec<Real> {
+        let base = self.base.as_deref();
+        self.pending
+            .iter()
+            .enumerate()
+            .map(|(p, (_, b, _))| {
+                let old = base.map_or(1.0, |b| Dim::<D>::det(&b[p]));
+                Dim::<D>::det(b) / old
+            })
+            .collect()
+    }
+
     /// Whether the plastic flow of any material needs a base (set up before the first step).
     pub fn needs_base(materials: &[Material]) -> bool {
         materials.iter().any(Material::needs_plastic_state)

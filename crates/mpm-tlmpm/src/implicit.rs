@@ -401,6 +401,16 @@ where
         self.stats.time(Stage::G2P, || core.grid_to_particles(dt))
     }
 
+    /// A-ULMPM, after [`Self::transfer_back`]: the factor by which each particle's plastic
+    /// return mapping changed its elastic volume, `det F_E / det F_E^trial` (1 for elastic
+    /// particles); `None` without reference updates.
+    pub fn plastic_volume_factors(&self) -> Option<Vec<Real>> {
+        self.core
+            .adaptive
+            .as_ref()
+            .map(|a| a.plastic_volume_factors())
+    }
+
     /// Coupling stage 3, once the whole coupled attempt of `dt` (s) is accepted: writes the
     /// G2P results into the particles, advances time and the step count, and runs the A-ULMPM
     /// reference update when it is on. Returns whether the reference moved.

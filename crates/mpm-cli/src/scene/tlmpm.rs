@@ -534,16 +534,7 @@ pub(crate) fn resolve_solid_tables(
             | ModelDef::StableNeoHookean(s) => !matches!(s.plasticity, PlasticityDef::None),
             ModelDef::Tait(_) => false,
         };
-        if plastic && solver == "diq" {
-            c.err(
-                &format!("materials[{i}].plasticity"),
-                format!(
-                    "plastic material \"{}\": plastic solids are not coupled to the DIQ fluid \
-                     yet (elastic solids are, also with A-ULMPM reference updates)",
-                    m.name
-                ),
-            );
-        } else if plastic && reference_update.is_none() {
+        if plastic && reference_update.is_none() {
             c.err(
                 &format!("materials[{i}].plasticity"),
                 format!(
