@@ -4,7 +4,10 @@
 //! - `tlmpm_assembly`: assembling the sparse matrix `M/Δt² + K` from the per-particle tensors;
 //! - `tlmpm_factorization`: the numeric sparse Cholesky factorisation (symbolic part reused);
 //! - `tlmpm_solve`: the two triangular solves for the Newton direction;
-//! - `tlmpm_step`: a full implicit step (Newton to convergence), the scene evolving.
+//! - `tlmpm_factorization_single`, `tlmpm_solve_single`: the same two in f32;
+//! - `tlmpm_step`: a full implicit step (Newton to convergence), the scene evolving;
+//! - `tlmpm_step_pure_newton`: the same with `chord` and `single_precision` off (every Newton
+//!   direction from a fresh f64 factorisation), for a comparison in the same run.
 //!
 //! Sizes: 32² and 64² cells of 2 × 2 particles (4 096 and 16 384 particles). Throughput is
 //! particles per second. Run with `cargo bench -p mpm-benches --bench tlmpm`.
@@ -12,8 +15,11 @@
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, SamplingMode, Throughput};
 use mpm_benches::jelly;
-use mpm_core::{Columns, GridSpec, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector};
-use mpm_tlmpm::{ImplicitParams, ImplicitTlmpm, TlmpmParams};
+use mpm_core::solver::StageTime;
+use mpm_core::{
+    Columns, GridSpec, Matrix, ParticleInit, Particles, Real, Solver, TimeStepPolicy, Vector,
+};
+use mpm_tlmpm::{ImplicitParams, ImplicitTlmpm, NewtonParams, TlmpmParams};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -29,8 +35,9 @@ fn configure(group: &mut BenchmarkGroup<'_, WallTime>) {
 }
 
 /// A jelly block of `cells`² cells (Δx = 1/128 m, 2 × 2 particles per cell) spinning and
-/// stretching about its centre under gravity, on a grid with 3 spare cells per side.
-fn scene(cells: usize) -> ImplicitTlmpm<2> {
+/// stretching about its centre under gravity, on a grid with 3 spare cells per side, solved
+/// with `newton`.
+fn scene(cells: usize, newton: NewtonParams) -> ImplicitTlmpm<2> {
     let dx = 1.0 / 128.0;
     let h = dx / 2.0;
     let n = 2 * cells;
@@ -62,7 +69,10 @@ fn scene(cells: usize) -> ImplicitTlmpm<2> {
     ImplicitTlmpm::new(
         grid,
         params,
-        ImplicitParams::default(),
+        ImplicitParams {
+            newton,
+            ..ImplicitParams::default()
+        },
         vec![jelly()],
         particles,
     )
@@ -73,7 +83,7 @@ fn benches(c: &mut Criterion) {
     eprintln!("rayon threads: {}", rayon::current_num_threads());
     for cells in [32, 64] {
         let name = format!("2d_{}k", (4 * cells * cells) / 1024);
-        let mut solver = scene(cells);
+        let mut solver = scene(cells, NewtonParams::default());
         // Advance a few steps so the block is deformed, then linearise once.
         for _ in 0..3 {
             solver.step().expect("step");
@@ -89,36 +99,105 @@ fn benches(c: &mut Criterion) {
         group.throughput(Throughput::Elements(np));
         group.bench_function(&name, |b| b.iter(|| solver.assemble_tangent().unwrap()));
         group.finish();
-        let mut group = c.benchmark_group("tlmpm_factorization");
-        configure(&mut group);
-        group.throughput(Throughput::Elements(np));
-        group.bench_function(&name, |b| b.iter(|| solver.factorize_tangent().unwrap()));
-        group.finish();
-        let mut group = c.benchmark_group("tlmpm_solve");
-        configure(&mut group);
-        group.throughput(Throughput::Elements(np));
-        group.bench_function(&name, |b| {
-            b.iter(|| black_box(solver.solve_tangent().unwrap()))
-        });
-        group.finish();
+        for (suffix, single) in [("", false), ("_single", true)] {
+            let mut group = c.benchmark_group(format!("tlmpm_factorization{suffix}"));
+            configure(&mut group);
+            group.throughput(Throughput::Elements(np));
+            group.bench_function(&name, |b| {
+                b.iter(|| solver.factorize_tangent(single).unwrap())
+            });
+            group.finish();
+            // The solves run in the precision of the factor just computed.
+            solver.factorize_tangent(single).unwrap();
+            let mut group = c.benchmark_group(format!("tlmpm_solve{suffix}"));
+            configure(&mut group);
+            group.throughput(Throughput::Elements(np));
+            group.bench_function(&name, |b| {
+                b.iter(|| black_box(solver.solve_tangent().unwrap()))
+            });
+            group.finish();
+        }
         let mut group = c.benchmark_group("tlmpm_step");
         configure(&mut group);
         group.throughput(Throughput::Elements(np));
-        let mut iterations = (0u64, 0u64);
+        let mut iterations = (0u64, 0u64, 0u64);
+        let before = Solver::stage_times(&solver);
         group.bench_function(&name, |b| {
             b.iter(|| {
                 let info = solver.step().expect("step");
                 iterations.0 += 1;
                 iterations.1 += u64::from(info.newton.iterations);
+                iterations.2 += u64::from(info.newton.chord_iterations);
             })
         });
         group.finish();
         eprintln!(
-            "{name}: {:.2} Newton iterations per step over {} steps",
+            "{name}: {:.2} Newton iterations per step ({:.2} of them chord iterations) over {} steps",
             iterations.1 as f64 / iterations.0.max(1) as f64,
+            iterations.2 as f64 / iterations.0.max(1) as f64,
             iterations.0
         );
+        if iterations.0 > 0 {
+            eprintln!(
+                "{name}: step time by stage (Newton parts under solve): {}",
+                shares(&before, &Solver::stage_times(&solver))
+            );
+        }
+        // The same scene with pure Newton (every direction from a fresh f64 factorisation),
+        // as every step ran before chord iterations and single-precision factors.
+        let mut pure = scene(
+            cells,
+            NewtonParams {
+                chord: false,
+                single_precision: false,
+                ..NewtonParams::default()
+            },
+        );
+        for _ in 0..3 {
+            pure.step().expect("step");
+        }
+        let mut group = c.benchmark_group("tlmpm_step_pure_newton");
+        configure(&mut group);
+        group.throughput(Throughput::Elements(np));
+        group.bench_function(&name, |b| b.iter(|| black_box(pure.step().expect("step"))));
+        group.finish();
     }
+}
+
+/// The share of each stage, and of each part of a stage, in the time spent between the two
+/// readings `before` and `after` of the accumulated stage times.
+fn shares(before: &[StageTime], after: &[StageTime]) -> String {
+    let delta = |a: &StageTime| {
+        let b = before.iter().find(|b| b.stage == a.stage);
+        let parts: Vec<(&str, f64)> = a
+            .parts
+            .iter()
+            .map(|(name, s)| {
+                let old = b
+                    .and_then(|b| b.parts.iter().find(|p| p.0 == *name))
+                    .map_or(0.0, |p| p.1);
+                (*name, s - old)
+            })
+            .collect();
+        (a.stage, a.seconds - b.map_or(0.0, |b| b.seconds), parts)
+    };
+    let rows: Vec<_> = after.iter().map(delta).collect();
+    let total: f64 = rows.iter().map(|r| r.1).sum();
+    rows.iter()
+        .map(|(stage, s, parts)| {
+            let inner = parts
+                .iter()
+                .map(|(n, p)| format!("{n} {:.1}%", 100.0 * p / total))
+                .collect::<Vec<_>>()
+                .join(", ");
+            if inner.is_empty() {
+                format!("{stage} {:.1}%", 100.0 * s / total)
+            } else {
+                format!("{stage} {:.1}% [{inner}]", 100.0 * s / total)
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn main() {

@@ -57,7 +57,7 @@ pub use cg::{
     conjugate_gradient, CgError, CgInfo, CgParams, CgStop, CgWorkspace, InitialGuess,
     LinearOperator, OnIterationCap,
 };
-pub use cholesky::{CholeskyError, SparseCholesky};
+pub use cholesky::{CholeskyError, Precision, SparseCholesky};
 pub use dof::DofMap;
 pub use multigrid::{
     CellLabel, MultigridParams, MultigridPreconditioner, PoissonGrid, PoissonGridError,

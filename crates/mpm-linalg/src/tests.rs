@@ -153,6 +153,39 @@ fn cg_on_2d_poisson_matches_the_direct_solutions() {
     assert!(rel_diff(&x_chol, &x_dense) < 1e-13);
 }
 
+#[test]
+fn single_precision_factor_solves_to_the_condition_number_times_f32_rounding() {
+    let (nx, ny) = (20, 17);
+    let a = poisson(nx, ny, 0.05);
+    let b = samples(3.1, nx * ny);
+    let x_dense = dense_solve(&a, &b);
+    let mut chol = SparseCholesky::new(a.pattern()).unwrap();
+    chol.factorize_single(&a).unwrap();
+    assert_eq!(chol.factored(), Some(Precision::Single));
+    let mut x = b.clone();
+    chol.solve_in_place(&mut x).unwrap();
+    let single = rel_diff(&x, &x_dense);
+    chol.factorize(&a).unwrap();
+    assert_eq!(chol.factored(), Some(Precision::Double));
+    let mut x = b.clone();
+    chol.solve_in_place(&mut x).unwrap();
+    let double = rel_diff(&x, &x_dense);
+    println!("2D Poisson {nx}×{ny}: f32 factor {single:.2e}, f64 factor {double:.2e}");
+    // κ ≈ 190 and the f32 unit roundoff 6e-8 bound the f32 error by about 1e-5; it must be
+    // an f32 solve (above f64 rounding) and the f64 one must stay at f64 rounding.
+    assert!(single < 190.0 * 6e-8 && single > 1e-10, "{single:e}");
+    assert!(double < 1e-13, "{double:e}");
+    // A failed factorisation leaves none, in either precision.
+    let mut indefinite = a.clone();
+    indefinite.add(0, 0, -1e4).unwrap();
+    assert!(chol.factorize_single(&indefinite).is_err());
+    assert_eq!(chol.factored(), None);
+    assert_eq!(
+        chol.solve_in_place(&mut x),
+        Err(CholeskyError::NotFactorized)
+    );
+}
+
 /// `L = tridiag(−1, 3, −1)` (condition number below 5).
 fn shifted_laplacian(n: usize) -> SymmetricMatrix {
     let mut a = poisson(n, 1, 1.0);

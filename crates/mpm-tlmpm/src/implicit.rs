@@ -287,11 +287,16 @@ where
     }
 
     /// Numeric Cholesky factorisation of the last assembled Newton matrix (the symbolic
-    /// factorisation is reused).
-    pub fn factorize_tangent(&mut self) -> Result<(), CholeskyError> {
+    /// factorisation is reused), in f32 when `single` (see [`crate::NewtonParams::single_precision`]),
+    /// else in f64.
+    pub fn factorize_tangent(&mut self, single: bool) -> Result<(), CholeskyError> {
         let sys = self.ws.objective.sparse.as_mut();
         let sys = sys.ok_or(CholeskyError::NotFactorized)?;
-        sys.cholesky.factorize(&sys.matrix)
+        if single {
+            sys.cholesky.factorize_single(&sys.matrix)
+        } else {
+            sys.cholesky.factorize(&sys.matrix)
+        }
     }
 
     /// Solves `H d = −∇E` with the last factorisation (triangular solves) and returns `‖d‖₂`
@@ -657,6 +662,7 @@ where
         linear: implicit.linear,
         ws: &mut ws.objective,
         times,
+        deformed: None,
     };
     if problem.energy(displacement).is_none() {
         // The predictor inverts an element: start from rest on the free components.
@@ -706,6 +712,9 @@ struct Problem<'a, const D: usize> {
     linear: LinearSolver,
     ws: &'a mut ObjectiveWork<D>,
     times: &'a mut NewtonTimes,
+    /// The displacements `ws.def_grad` was last computed from in this solve: Newton evaluates
+    /// the energy, the gradient and the tangent at the same point in turn.
+    deformed: Option<Vec<Vector<D>>>,
 }
 
 impl<const D: usize> Problem<'_, D>
@@ -737,6 +746,12 @@ where
     }
 
     fn update_deformation(&mut self, u: &[Vector<D>]) {
+        if self.deformed.as_deref() == Some(u) {
+            return;
+        }
+        let key = self.deformed.get_or_insert_with(Vec::new);
+        key.clear();
+        key.extend_from_slice(u);
         let n = self.pot.reference.num_particles();
         self.ws.def_grad.resize(n, Matrix::<D>::zeros());
         deformation(
@@ -752,6 +767,17 @@ impl<const D: usize> Objective<D> for Problem<'_, D>
 where
     Dim<D>: DimOps<D>,
 {
+    fn chord_direction(&mut self, r: &[Vector<D>], d: &mut [Vector<D>]) -> Option<()> {
+        if !self.ws.factored {
+            return None;
+        }
+        let t = Instant::now();
+        let sys = self.ws.sparse.as_mut()?;
+        solve_factored(sys, self.pot.constraints, r, d).ok()?;
+        self.times.linear_solve += t.elapsed();
+        Some(())
+    }
+
     fn energy(&mut self, u: &[Vector<D>]) -> Option<(Real, Real)> {
         let t = Instant::now();
         self.update_deformation(u);
@@ -790,17 +816,13 @@ where
         r: &[Vector<D>],
         d: &mut [Vector<D>],
         project: bool,
+        exact: bool,
     ) -> Result<Result<u32, Indefinite>, String> {
         if self.ws.frozen {
-            let t = Instant::now();
-            let sys = self
-                .ws
-                .sparse
-                .as_mut()
-                .ok_or("sparse system not analysed")?;
-            solve_factored(sys, self.pot.constraints, r, d)?;
-            self.times.linear_solve += t.elapsed();
-            return Ok(Ok(0));
+            return self
+                .chord_direction(r, d)
+                .map(|()| Ok(0))
+                .ok_or_else(|| "no factor to reuse".into());
         }
         let t = Instant::now();
         self.update_deformation(u);
@@ -829,7 +851,14 @@ where
                 assemble(pot, tensors, &mut sys.matrix);
                 self.times.assembly += t.elapsed();
                 let t = Instant::now();
-                let factor = sys.cholesky.factorize(&sys.matrix);
+                // f32 first unless asked for f64; an f32 failure (ill conditioning) retries
+                // in f64 before the tangent counts as indefinite.
+                let single = !exact && sys.cholesky.factorize_single(&sys.matrix).is_ok();
+                let factor = if single {
+                    Ok(())
+                } else {
+                    sys.cholesky.factorize(&sys.matrix)
+                };
                 self.times.factorization += t.elapsed();
                 *factored = factor.is_ok();
                 match factor {

@@ -1,13 +1,17 @@
 //! Newton's method with a capped backtracking line search on an incremental potential.
 
 use crate::error::NewtonError;
-use crate::params::{NewtonParams, SpdProjection};
+use crate::params::{LineSearch, NewtonParams, SpdProjection};
 use mpm_core::{Real, Vector};
 use serde::Serialize;
 
 /// Relative size of an energy change below which energies are compared at round-off level; the
 /// line search then accepts a step on a decrease of the residual instead.
 const ENERGY_ROUNDOFF: Real = 1e-10;
+
+/// Most line-search halvings of a chord iteration: a chord direction that needs more is a poor
+/// one, and a fresh tangent is cheaper than further energy evaluations.
+const CHORD_HALVINGS: u32 = 2;
 
 /// What one Newton solve did.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -24,6 +28,9 @@ pub struct NewtonInfo {
     pub linear_iterations: u32,
     /// Iterations that used the SPD-projected tangent.
     pub projected_iterations: u32,
+    /// Chord iterations: iterations whose direction reused the last factorised tangent
+    /// ([`NewtonParams::chord`]); included in `iterations`.
+    pub chord_iterations: u32,
 }
 
 /// Least-squares estimate of the convergence order `q` in `r_{k+1} ≈ C r_k^q` from consecutive
@@ -57,15 +64,23 @@ pub(crate) trait Objective<const D: usize> {
     /// `∇E(u)` (N) into `out`, zero on prescribed components; returns the force scale (N).
     fn gradient(&mut self, u: &[Vector<D>], out: &mut [Vector<D>]) -> Real;
     /// Solves `H(u) d = −r`, zero on prescribed components, with the SPD-projected tangent when
-    /// `project`. Returns the linear iterations, or `Ok(Err(Indefinite))` when the tangent is not
-    /// positive definite.
+    /// `project`; in full precision when `exact`, else possibly with a single-precision
+    /// factorisation ([`NewtonParams::single_precision`]). Returns the linear iterations, or
+    /// `Ok(Err(Indefinite))` when the tangent is not positive definite.
     fn direction(
         &mut self,
         u: &[Vector<D>],
         r: &[Vector<D>],
         d: &mut [Vector<D>],
         project: bool,
+        exact: bool,
     ) -> Result<Result<u32, Indefinite>, String>;
+    /// A chord direction: solves `H(u') d = −r` with the factor of the last tangent
+    /// [`Self::direction`] factorised, at an earlier iterate `u'`. `None` when there is no such
+    /// factor (the default: an objective without a reusable factorisation).
+    fn chord_direction(&mut self, _r: &[Vector<D>], _d: &mut [Vector<D>]) -> Option<()> {
+        None
+    }
 }
 
 /// Scratch vectors of the Newton loop.
@@ -105,6 +120,8 @@ pub(crate) fn minimize<const D: usize>(
     info.residuals.push(residual);
     let ls = params.line_search;
     let mut iteration = 0;
+    let mut chord = false;
+    let mut exact = !params.single_precision;
     loop {
         if residual <= tolerance {
             return Ok(info);
@@ -117,56 +134,49 @@ pub(crate) fn minimize<const D: usize>(
                 tolerance,
             });
         }
-        // Newton direction, with the projected tangent when the exact one fails.
-        let mut project = params.projection == SpdProjection::Always;
-        let slope = loop {
-            let outcome = obj
-                .direction(u, &w.r, &mut w.d, project)
-                .map_err(|message| NewtonError::LinearSolver { iteration, message })?;
-            if let Ok(lin) = outcome {
-                info.linear_iterations += lin;
-                let s = dot(&w.r, &w.d);
-                if s < 0.0 {
-                    break s;
-                }
-            }
-            if project || params.projection == SpdProjection::Never {
-                return Err(NewtonError::IndefiniteTangent { iteration });
-            }
-            project = true;
-        };
-        if project {
-            info.projected_iterations += 1;
-        }
-        // Capped backtracking line search.
-        let mut alpha = 1.0;
+        // Newton direction, with the projected tangent when the exact one fails; a chord
+        // direction when the last iteration contracted enough (`NewtonParams::chord`).
         let mut accepted = None;
-        for _ in 0..=ls.max_halvings {
-            for ((t, x), d) in w.trial.iter_mut().zip(u.iter()).zip(&w.d) {
-                *t = x + d * alpha;
-            }
-            if let Some(e) = obj.energy(&w.trial) {
-                if e.0 <= energy.0 + ls.armijo * alpha * slope {
-                    accepted = Some((e, false));
-                } else if (alpha * slope).abs() <= ENERGY_ROUNDOFF * e.1.max(energy.1) {
-                    obj.gradient(&w.trial, &mut w.r_trial);
-                    if dot(&w.r_trial, &w.r_trial).sqrt() < residual {
-                        accepted = Some((e, true));
-                    }
-                }
-            }
-            if accepted.is_some() {
-                break;
-            }
-            alpha *= 0.5;
-            info.halvings += 1;
-        }
-        let Some((e, have_gradient)) = accepted else {
-            return Err(NewtonError::LineSearchFailed {
-                iteration,
-                halvings: ls.max_halvings,
-                residual,
+        if chord {
+            accepted = obj.chord_direction(&w.r, &mut w.d).and_then(|()| {
+                let capped = LineSearch {
+                    max_halvings: ls.max_halvings.min(CHORD_HALVINGS),
+                    ..ls
+                };
+                line_search(obj, u, w, capped, energy, residual, &mut info)
             });
+        }
+        let chorded = accepted.is_some();
+        let (e, have_gradient) = match accepted {
+            Some(a) => a,
+            None => {
+                let mut project = params.projection == SpdProjection::Always;
+                loop {
+                    let outcome = obj
+                        .direction(u, &w.r, &mut w.d, project, exact)
+                        .map_err(|message| NewtonError::LinearSolver { iteration, message })?;
+                    if let Ok(lin) = outcome {
+                        info.linear_iterations += lin;
+                        if dot(&w.r, &w.d) < 0.0 {
+                            break;
+                        }
+                    }
+                    if project || params.projection == SpdProjection::Never {
+                        return Err(NewtonError::IndefiniteTangent { iteration });
+                    }
+                    project = true;
+                }
+                if project {
+                    info.projected_iterations += 1;
+                }
+                line_search(obj, u, w, ls, energy, residual, &mut info).ok_or(
+                    NewtonError::LineSearchFailed {
+                        iteration,
+                        halvings: ls.max_halvings,
+                        residual,
+                    },
+                )?
+            }
         };
         std::mem::swap(u, &mut w.trial);
         energy = e;
@@ -175,11 +185,53 @@ pub(crate) fn minimize<const D: usize>(
         } else {
             obj.gradient(u, &mut w.r);
         }
+        let previous = residual;
         residual = dot(&w.r, &w.r).sqrt();
         iteration += 1;
         info.iterations = iteration;
+        info.chord_iterations += u32::from(chorded);
         info.residuals.push(residual);
+        let contracted = residual <= NewtonParams::CHORD_CONTRACTION * previous;
+        chord = params.chord && contracted;
+        exact |= !contracted;
     }
+}
+
+/// Capped backtracking (Armijo) line search along `w.d` from `u`, whose energy is `energy` and
+/// residual norm `residual`; the accepted point goes to `w.trial`. Returns its energy and
+/// whether `w.r_trial` holds its gradient, or `None` when every step length failed.
+fn line_search<const D: usize>(
+    obj: &mut impl Objective<D>,
+    u: &[Vector<D>],
+    w: &mut NewtonWork<D>,
+    ls: LineSearch,
+    energy: (Real, Real),
+    residual: Real,
+    info: &mut NewtonInfo,
+) -> Option<((Real, Real), bool)> {
+    let slope = dot(&w.r, &w.d);
+    if slope >= 0.0 {
+        return None;
+    }
+    let mut alpha = 1.0;
+    for _ in 0..=ls.max_halvings {
+        for ((t, x), d) in w.trial.iter_mut().zip(u.iter()).zip(&w.d) {
+            *t = x + d * alpha;
+        }
+        if let Some(e) = obj.energy(&w.trial) {
+            if e.0 <= energy.0 + ls.armijo * alpha * slope {
+                return Some((e, false));
+            } else if (alpha * slope).abs() <= ENERGY_ROUNDOFF * e.1.max(energy.1) {
+                obj.gradient(&w.trial, &mut w.r_trial);
+                if dot(&w.r_trial, &w.r_trial).sqrt() < residual {
+                    return Some((e, true));
+                }
+            }
+        }
+        alpha *= 0.5;
+        info.halvings += 1;
+    }
+    None
 }
 
 #[cfg(test)]
@@ -213,6 +265,7 @@ mod tests {
             r: &[Vector<2>],
             d: &mut [Vector<2>],
             _project: bool,
+            _exact: bool,
         ) -> Result<Result<u32, Indefinite>, String> {
             for (((d, x), c), r) in d.iter_mut().zip(u).zip(&self.c).zip(r) {
                 *d = -r.component_div(&(x - c).map(Real::exp));

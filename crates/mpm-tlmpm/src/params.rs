@@ -236,6 +236,28 @@ pub struct NewtonParams {
     pub line_search: LineSearch,
     /// Positive-definiteness treatment of the tangent.
     pub projection: SpdProjection,
+    /// Chord iterations (Cholesky solver only): once an iteration has cut the residual by at
+    /// least [`NewtonParams::CHORD_CONTRACTION`], the next direction reuses the factor of the
+    /// last tangent (one triangular solve, no new tangent, assembly or factorisation), as long
+    /// as each such iteration keeps that contraction; otherwise, or when its line search
+    /// fails, a fresh tangent is factorised. The stopping test is the same, so the solution
+    /// meets the same tolerance; convergence becomes linear where it was quadratic. `false`
+    /// gives pure Newton.
+    pub chord: bool,
+    /// Single-precision factorisations (Cholesky solver only): a fresh tangent is factorised in
+    /// f32 (about half the time of f64 in the 2D benchmark), its direction correct to about
+    /// `κ · 6e-8`, which the iteration corrects like a chord step. After an iteration that
+    /// fails [`NewtonParams::CHORD_CONTRACTION`], or when the f32 factorisation fails, the rest
+    /// of the solve factorises in f64. The stopping test is the same. `false` keeps every
+    /// factorisation in f64 (with `chord = false`: Newton's quadratic convergence).
+    pub single_precision: bool,
+}
+
+impl NewtonParams {
+    /// The residual ratio `‖∇E_{k+1}‖/‖∇E_k‖` an iteration must reach for the next one to be a
+    /// chord iteration (dimensionless). A chord iteration costs about a sixth of a fresh one
+    /// in the 2D benchmark (`benches/README.md`), so it pays while it gains a digit.
+    pub const CHORD_CONTRACTION: Real = 0.1;
 }
 
 impl Default for NewtonParams {
@@ -247,6 +269,8 @@ impl Default for NewtonParams {
             roundoff: 1e-13,
             line_search: LineSearch::default(),
             projection: SpdProjection::OnFailure,
+            chord: true,
+            single_precision: true,
         }
     }
 }

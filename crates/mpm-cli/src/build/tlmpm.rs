@@ -144,6 +144,8 @@ pub(super) fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
             abs_tol: t.abs_tol.unwrap_or(d.abs_tol),
             rel_tol: t.rel_tol.unwrap_or(d.rel_tol),
             projection: t.spd_projection.unwrap_or(d.projection),
+            chord: t.chord.unwrap_or(d.chord),
+            single_precision: t.single_precision.unwrap_or(d.single_precision),
             ..d
         },
         linear: match t.linear_solver {

@@ -53,6 +53,29 @@ fn a_scene_without_solver_runs_the_explicit_solver() {
 }
 
 #[test]
+fn chord_and_single_precision_apply_to_the_implicit_cholesky_solve_only() {
+    let text = scene(
+        "solver = \"tlmpm\"",
+        "",
+        "[tlmpm]\nlinear_solver = \"cg\"\nchord = false\nsingle_precision = false\n",
+    );
+    let p = problems(&text);
+    assert_eq!(p.len(), 2, "{p:?}");
+    for (problem, key) in p.iter().zip(["chord", "single_precision"]) {
+        assert_eq!(problem.0, format!("tlmpm.{key}"));
+        assert_eq!(problem.1, line_of(&text, &format!("{key} =")));
+        assert_eq!(problem.2, "does not apply with linear_solver = \"cg\"");
+    }
+    let off = parsed(&scene(
+        "solver = \"tlmpm\"",
+        "",
+        "[tlmpm]\nchord = false\nsingle_precision = false\n",
+    ));
+    let t = &off.scene.tlmpm().expect("TLMPM tables").tlmpm;
+    assert_eq!((t.chord, t.single_precision), (Some(false), Some(false)));
+}
+
+#[test]
 fn solver_tlmpm_without_its_table_runs_with_the_documented_defaults() {
     let s = parsed(&scene("solver = \"tlmpm\"", "", ""));
     assert_eq!(s.scene.solver.kind(), SolverKind::Tlmpm);
@@ -64,6 +87,7 @@ fn solver_tlmpm_without_its_table_runs_with_the_documented_defaults() {
     assert_eq!(t.abs_tol, Some(1e-10));
     assert_eq!(t.rel_tol, Some(1e-8));
     assert_eq!(t.spd_projection, Some(SpdProjection::OnFailure));
+    assert_eq!((t.chord, t.single_precision), (Some(true), Some(true)));
     assert!(t.contact);
     // Half the node spacing dx = 0.05 m.
     assert_eq!(t.contact_radius, 0.025);

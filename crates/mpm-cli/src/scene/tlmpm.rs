@@ -78,6 +78,8 @@ pub(crate) struct RawTlmpm {
     abs_tol: Option<f64>,
     rel_tol: Option<f64>,
     spd_projection: Option<SpdProjection>,
+    chord: Option<bool>,
+    single_precision: Option<bool>,
     contact: Option<bool>,
     contact_radius: Option<f64>,
     reference_update: Option<RawReferenceUpdate>,
@@ -176,6 +178,12 @@ pub struct TlmpmDef {
     /// Tangent projection (implicit only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spd_projection: Option<SpdProjection>,
+    /// Newton chord iterations (implicit with the Cholesky solver only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chord: Option<bool>,
+    /// Single-precision factorisations (implicit with the Cholesky solver only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub single_precision: Option<bool>,
     /// Particle–particle penalty contact (Eq. 4).
     pub contact: bool,
     /// Effective contact radius of every particle (m); default ½ Δx, the choice of diq-mpm
@@ -502,6 +510,26 @@ pub(crate) fn resolve_solid_tables(
         t.and_then(|t| t.spd_projection)
             .unwrap_or(newton.projection)
     });
+    // Chord iterations and f32 factors reuse or round a Cholesky factor: nothing to do with CG.
+    let [chord, single_precision] = [
+        ("chord", t.and_then(|t| t.chord), newton.chord),
+        (
+            "single_precision",
+            t.and_then(|t| t.single_precision),
+            newton.single_precision,
+        ),
+    ]
+    .map(|(key, given, default)| {
+        let applies = opt(given.is_some(), key, c);
+        if applies && cg {
+            c.not_applicable(
+                &format!("tlmpm.{key}"),
+                given.is_some(),
+                "with linear_solver = \"cg\"",
+            );
+        }
+        (applies && !cg).then(|| given.unwrap_or(default))
+    });
     let contact = t.and_then(|t| t.contact).unwrap_or(true);
     if !contact && !boundaries.is_empty() {
         c.err(
@@ -690,6 +718,8 @@ pub(crate) fn resolve_solid_tables(
             abs_tol,
             rel_tol,
             spd_projection,
+            chord,
+            single_precision,
             contact,
             contact_radius,
             reference_update,

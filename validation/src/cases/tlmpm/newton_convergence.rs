@@ -3,8 +3,9 @@
 //!
 //! A soft Neo-Hookean block `[0.3, 0.7]^D` m (E = 1 kPa, ν = 0.3, ρ = 1000 kg/m^D, 2 particles
 //! per cell per axis) starts with the affine velocity `v = A (X − c)` (1/s · m), and one step of
-//! Δt = 0.1 s is taken with `abs_tol = 0`, `rel_tol = 1e-14` and the exact (never projected)
-//! tangent, so the step deforms the block by principal stretches from about 0.6 to 1.6 and Newton runs
+//! Δt = 0.1 s is taken with `abs_tol = 0`, `rel_tol = 1e-14`, the exact (never projected)
+//! tangent and pure Newton (every direction from a fresh f64 factorisation: no chord
+//! iterations, no single-precision factors), so the step deforms the block by principal stretches from about 0.6 to 1.6 and Newton runs
 //! until round-off. The recorded residual sequence `‖∇E‖₂` (N) gives the fitted order
 //! `q` of `r_{k+1} ≈ C r_k^q` over the quadratic regime (from the last residual above
 //! `10⁻² r₀` to the last one above ten times the final tolerance, where rounding errors take
@@ -94,6 +95,9 @@ where
             rel_tol: 1e-14,
             max_iterations: 60,
             projection: SpdProjection::Never,
+            // Pure Newton: chord iterations and f32 factors converge linearly by design.
+            chord: false,
+            single_precision: false,
             ..NewtonParams::default()
         },
         linear: LinearSolver::Cholesky,
