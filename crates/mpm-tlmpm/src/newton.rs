@@ -160,6 +160,12 @@ pub(crate) fn minimize<const D: usize>(
                         if dot(&w.r, &w.d) < 0.0 {
                             break;
                         }
+                        if !exact {
+                            // An f32 factor too coarse for a descent direction: f64 before
+                            // the tangent counts as indefinite.
+                            exact = true;
+                            continue;
+                        }
                     }
                     if project || params.projection == SpdProjection::Never {
                         return Err(NewtonError::IndefiniteTangent { iteration });
