@@ -905,3 +905,31 @@ fn plastic_flow_moves_the_soil_pressure_with_the_elastic_volume() {
     }
     assert!(updates >= 4, "{updates} reference updates");
 }
+
+#[test]
+fn plastic_coupled_run_is_bitwise_across_threads_and_a_resume() {
+    // The soil block with a reference update every step: the corrected P^s, the plastic state
+    // and the base F^(0,r) all go through the checkpoint.
+    let run = |threads: usize| {
+        crate::tests::with_threads(threads, || {
+            let mut s = dilating_soil(1e-4);
+            for _ in 0..3 {
+                s.advance().unwrap();
+            }
+            let mid = s.checkpoint();
+            for _ in 0..3 {
+                s.advance().unwrap();
+            }
+            (mid, s.checkpoint())
+        })
+    };
+    let (mid1, end1) = run(1);
+    let (_, end2) = run(2);
+    assert_eq!(end1, end2, "1 vs 2 threads");
+    let mut resumed = dilating_soil(1e-4);
+    resumed.restore(&mid1).unwrap();
+    for _ in 0..3 {
+        resumed.advance().unwrap();
+    }
+    assert_eq!(resumed.checkpoint(), end1, "resume from checkpoint");
+}
