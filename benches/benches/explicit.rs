@@ -5,14 +5,16 @@
 //! - `p2g`: binning plus the transfer (`transfer_to_grid`), repeated on the same state;
 //! - `g2p`: G2P plus the commit (`PreparedG2p::run`); each iteration first runs an untimed sort, P2G and
 //!   grid update so the gather always reads a grid that matches the particles;
-//! - `step`: a full `ExplicitSolver::step`, the scene evolving from iteration to iteration.
+//! - `step`: a full `ExplicitSolver::step`, the scene evolving from iteration to iteration;
+//!   `step/3d_256k_domain512` is `step/3d_256k`'s cube in a 512³-cell domain (the sparse grid
+//!   stores only the blocks the cube reaches, so it should take the time of the 64³ domain).
 //!
 //! Throughput is reported in particles per second. After the `step` runs the accumulated stage
 //! timings of the solver are printed to stderr. Run with `cargo bench -p mpm-benches`.
 
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, SamplingMode, Throughput};
-use mpm_benches::{memory, scene_2d, scene_3d, Size};
+use mpm_benches::{memory, scene_2d, scene_3d, scene_3d_in, Size, SPARSE_DOMAIN_CELLS};
 use mpm_core::{Dim, DimOps, Solver, TimeStepPolicy};
 use mpm_explicit::ExplicitSolver;
 use std::hint::black_box;
@@ -129,12 +131,14 @@ fn bench_step_on<const D: usize>(
     );
 }
 
-/// Runs `bench` for every scene of [`scenes`], building each solver fresh.
+/// Runs `bench` for every scene of [`scenes`], building each solver fresh; with `sparse`, also
+/// on the 256k cube in the [`SPARSE_DOMAIN_CELLS`]³ domain (`3d_256k_domain512`).
 fn for_each_scene(
     c: &mut Criterion,
     group_name: &str,
     bench2: fn(&mut BenchmarkGroup<'_, WallTime>, &str, ExplicitSolver<2>),
     bench3: fn(&mut BenchmarkGroup<'_, WallTime>, &str, ExplicitSolver<3>),
+    sparse: bool,
 ) {
     let mut group = c.benchmark_group(group_name);
     configure(&mut group);
@@ -145,20 +149,28 @@ fn for_each_scene(
             bench3(&mut group, &name, scene_3d(size));
         }
     }
+    if sparse {
+        let name = format!("3d_256k_domain{SPARSE_DOMAIN_CELLS}");
+        bench3(
+            &mut group,
+            &name,
+            scene_3d_in(Size::K256, SPARSE_DOMAIN_CELLS),
+        );
+    }
     group.finish();
 }
 
 fn p2g(c: &mut Criterion) {
     eprintln!("rayon threads: {}", rayon::current_num_threads());
-    for_each_scene(c, "p2g", bench_p2g_on::<2>, bench_p2g_on::<3>);
+    for_each_scene(c, "p2g", bench_p2g_on::<2>, bench_p2g_on::<3>, false);
 }
 
 fn g2p(c: &mut Criterion) {
-    for_each_scene(c, "g2p", bench_g2p_on::<2>, bench_g2p_on::<3>);
+    for_each_scene(c, "g2p", bench_g2p_on::<2>, bench_g2p_on::<3>, false);
 }
 
 fn step(c: &mut Criterion) {
-    for_each_scene(c, "step", bench_step_on::<2>, bench_step_on::<3>);
+    for_each_scene(c, "step", bench_step_on::<2>, bench_step_on::<3>, true);
 }
 
 fn main() {

@@ -134,17 +134,19 @@ fn fill_cells<const D: usize>(
     }
 }
 
-/// Builds the solver for a unit box of `n` cells per axis with the given particles, then fixes
-/// the time step at [`DT_FRACTION`] of the stable bound.
+/// Builds the solver for a grid of spacing `1/n` m and `domain_cells` cells per axis from the
+/// origin with the given particles, then fixes the time step at [`DT_FRACTION`] of the stable
+/// bound.
 fn build<const D: usize>(
     n: usize,
+    domain_cells: usize,
     materials: Vec<Material>,
     fill: impl FnOnce(&mut Particles<D>, &GridSpec<D>),
 ) -> ExplicitSolver<D>
 where
     Dim<D>: DimOps<D>,
 {
-    let spec = GridSpec::new(Vector::<D>::zeros(), 1.0 / n as Real, [n + 1; D]);
+    let spec = GridSpec::new(Vector::<D>::zeros(), 1.0 / n as Real, [domain_cells + 1; D]);
     let mut particles = Particles::<D>::new(Columns::for_materials(&materials));
     fill(&mut particles, &spec);
     let mut gravity = Vector::<D>::zeros();
@@ -190,7 +192,7 @@ where
 /// Exactly [`Size::particles`]`(2)` particles (water first, then jelly).
 pub fn scene_2d(size: Size) -> ExplicitSolver<2> {
     let n = size.cells(2);
-    let solver = build::<2>(n, vec![jelly(), water()], |ps, spec| {
+    let solver = build::<2>(n, n, vec![jelly(), water()], |ps, spec| {
         let water_lo = [n / 64, n / 64];
         fill_cells(
             ps,
@@ -218,8 +220,20 @@ pub fn scene_2d(size: Size) -> ExplicitSolver<2> {
 /// jelly cube of `(n/2)³` cells (`[1/4, 3/4] × [3/8, 7/8] × [1/4, 3/4]` m) at rest.
 /// Exactly [`Size::particles`]`(3)` particles.
 pub fn scene_3d(size: Size) -> ExplicitSolver<3> {
+    scene_3d_in(size, size.cells(3))
+}
+
+/// Cells per axis of the large domain of the sparse-grid benchmark.
+pub const SPARSE_DOMAIN_CELLS: usize = 512;
+
+/// [`scene_3d`] in a larger box: the same cube at the same cells from the origin, the same Δx
+/// and time step, in a domain of `domain_cells` cells per axis (walls at its faces). With
+/// [`SPARSE_DOMAIN_CELLS`] the 256k cube sits in a 512³-cell domain whose dense grid would hold
+/// 135 M nodes: the sparse grid stores only the blocks the cube reaches.
+pub fn scene_3d_in(size: Size, domain_cells: usize) -> ExplicitSolver<3> {
     let n = size.cells(3);
-    let solver = build::<3>(n, vec![jelly()], |ps, spec| {
+    assert!(domain_cells >= n, "the domain holds the unit box");
+    let solver = build::<3>(n, domain_cells, vec![jelly()], |ps, spec| {
         let lo = [n / 4, 3 * n / 8, n / 4];
         fill_cells(
             ps,

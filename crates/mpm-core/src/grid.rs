@@ -1,4 +1,4 @@
-//! Background grid geometry and dense node storage.
+//! Background grid geometry, the sparse block layout of node storage, and node storage.
 
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
@@ -86,7 +86,197 @@ impl<const D: usize> GridSpec<D> {
     }
 }
 
-/// Dense per-node storage of one grid (one phase).
+/// Which nodes of a grid are stored, and where: the sparse grid.
+///
+/// The grid is cut into blocks of `B^D` nodes ([`Self::BLOCK`] = `B` = 16 in 2D, 8 in 3D,
+/// the cell blocks of [`crate::scatter::Blocks`]); only the *active* blocks are stored, one
+/// after another in ascending block id (block coordinates first-axis fastest), each block's
+/// nodes first-axis fastest. Storage and every pass over the nodes therefore grow with the
+/// blocks that hold material, not with the domain: a cube of material in a 512³ domain costs
+/// what it costs in a 64³ one. A solver marks the blocks its scatters and gathers reach
+/// ([`Self::begin`], [`Self::mark`], [`Self::finish`]) before each step's transfers; node
+/// arrays (a [`GridNodes`]) then have [`Self::len`] entries, and [`Self::index`] and
+/// [`Self::node`] translate between a node's multi-index and its storage index. Nodes of an
+/// active block that lie beyond the grid's last node are stored but never receive anything.
+#[derive(Clone, Debug)]
+pub struct NodeLayout<const D: usize> {
+    /// Nodes per axis of the grid.
+    size: [usize; D],
+    /// Blocks per axis.
+    dims: [usize; D],
+    /// Storage slot of each block of the grid ([`Self::INACTIVE`] for blocks not stored); while
+    /// marking, [`Self::MARKED`] for the marked ones.
+    slot: Vec<u32>,
+    /// The active block ids: ascending after [`Self::finish`] (slot `s` holds block
+    /// `active[s]`), in marking order before.
+    active: Vec<u32>,
+}
+
+impl<const D: usize> Default for NodeLayout<D> {
+    fn default() -> Self {
+        Self {
+            size: [0; D],
+            dims: [0; D],
+            slot: Vec::new(),
+            active: Vec::new(),
+        }
+    }
+}
+
+impl<const D: usize> NodeLayout<D> {
+    /// Block edge length in nodes (16 in 2D, 8 in 3D).
+    pub const BLOCK: usize = if D == 2 { 16 } else { 8 };
+    /// Nodes per block, `BLOCK^D`.
+    pub const BLOCK_NODES: usize = Self::BLOCK.pow(D as u32);
+    const INACTIVE: u32 = u32::MAX;
+    const MARKED: u32 = u32::MAX - 1;
+
+    /// Every block of `spec` active: the dense grid in block order.
+    pub fn dense(spec: &GridSpec<D>) -> Self {
+        let mut layout = Self::default();
+        layout.begin(spec);
+        for id in 0..layout.slot.len() {
+            layout.mark(layout.block_coords(id));
+        }
+        layout.finish();
+        layout
+    }
+
+    /// Starts a new layout for `spec` with no active block (reuses the allocations).
+    pub fn begin(&mut self, spec: &GridSpec<D>) {
+        self.size = spec.size;
+        self.dims = std::array::from_fn(|a| spec.size[a].div_ceil(Self::BLOCK));
+        let blocks: usize = self.dims.iter().product();
+        debug_assert!(blocks < Self::MARKED as usize);
+        self.slot.clear();
+        self.slot.resize(blocks, Self::INACTIVE);
+        self.active.clear();
+    }
+
+    /// Blocks per axis.
+    pub fn dims(&self) -> [usize; D] {
+        self.dims
+    }
+
+    /// Marks the block with block coordinates `coords` active; coordinates beyond the grid
+    /// (negative or past the last block) are ignored.
+    #[inline]
+    pub fn mark(&mut self, coords: [i64; D]) {
+        let mut id = 0usize;
+        let mut stride = 1usize;
+        for a in 0..D {
+            let c = coords[a];
+            if c < 0 || c as usize >= self.dims[a] {
+                return;
+            }
+            id += c as usize * stride;
+            stride *= self.dims[a];
+        }
+        if self.slot[id] == Self::INACTIVE {
+            self.slot[id] = Self::MARKED;
+            self.active.push(id as u32);
+        }
+    }
+
+    /// The blocks marked so far, in marking order (ascending block id after [`Self::finish`]).
+    pub fn active(&self) -> &[u32] {
+        &self.active
+    }
+
+    /// Ends the marking: the marked blocks get storage slots in ascending block id.
+    pub fn finish(&mut self) {
+        self.active.sort_unstable();
+        for (s, &id) in self.active.iter().enumerate() {
+            self.slot[id as usize] = s as u32;
+        }
+    }
+
+    /// Block coordinates of block `id`.
+    #[inline]
+    pub fn block_coords(&self, mut id: usize) -> [i64; D] {
+        let mut c = [0i64; D];
+        for a in 0..D {
+            c[a] = (id % self.dims[a]) as i64;
+            id /= self.dims[a];
+        }
+        c
+    }
+
+    /// Storage slot of the block with coordinates `coords`, if it is active.
+    #[inline]
+    pub fn slot_of(&self, coords: &[i64; D]) -> Option<usize> {
+        let mut id = 0usize;
+        let mut stride = 1usize;
+        for a in 0..D {
+            let c = coords[a];
+            if c < 0 || c as usize >= self.dims[a] {
+                return None;
+            }
+            id += c as usize * stride;
+            stride *= self.dims[a];
+        }
+        match self.slot[id] {
+            s if s < Self::MARKED => Some(s as usize),
+            _ => None,
+        }
+    }
+
+    /// Number of stored nodes: active blocks × [`Self::BLOCK_NODES`].
+    pub fn len(&self) -> usize {
+        self.active.len() * Self::BLOCK_NODES
+    }
+
+    /// Whether no node is stored.
+    pub fn is_empty(&self) -> bool {
+        self.active.is_empty()
+    }
+
+    /// First node (multi-index) of the block in storage slot `slot`.
+    #[inline]
+    pub fn slot_origin(&self, slot: usize) -> [i64; D] {
+        let c = self.block_coords(self.active[slot] as usize);
+        std::array::from_fn(|a| c[a] * Self::BLOCK as i64)
+    }
+
+    /// Storage index of the grid node `node`, or `None` when it lies outside the grid or in an
+    /// inactive block.
+    #[inline]
+    pub fn index(&self, node: &[i64; D]) -> Option<usize> {
+        let b = Self::BLOCK as i64;
+        let mut coords = [0i64; D];
+        let mut local = 0usize;
+        let mut stride = 1usize;
+        for a in 0..D {
+            let n = node[a];
+            if n < 0 || n as usize >= self.size[a] {
+                return None;
+            }
+            coords[a] = n / b;
+            local += (n % b) as usize * stride;
+            stride *= Self::BLOCK;
+        }
+        Some(self.slot_of(&coords)? * Self::BLOCK_NODES + local)
+    }
+
+    /// Multi-index of the node at storage index `i`.
+    #[inline]
+    pub fn node(&self, i: usize) -> [i64; D] {
+        let mut node = self.slot_origin(i / Self::BLOCK_NODES);
+        let mut local = i % Self::BLOCK_NODES;
+        for n in node.iter_mut() {
+            *n += (local % Self::BLOCK) as i64;
+            local /= Self::BLOCK;
+        }
+        node
+    }
+
+    /// Bytes held (lengths, not capacities).
+    pub fn bytes(&self) -> usize {
+        (self.slot.len() + self.active.len()) * std::mem::size_of::<u32>()
+    }
+}
+
+/// Per-node storage of one grid (one phase), in the order of a [`NodeLayout`].
 #[derive(Clone, Debug, Default)]
 pub struct GridNodes<const D: usize> {
     /// Node mass (kg).
@@ -98,9 +288,9 @@ pub struct GridNodes<const D: usize> {
 }
 
 impl<const D: usize> GridNodes<D> {
-    /// Zeroed storage for `spec` (reuses existing allocations).
-    pub fn reset(&mut self, spec: &GridSpec<D>) {
-        let n = spec.num_nodes();
+    /// Zeroed storage for the nodes of `layout` (reuses existing allocations).
+    pub fn reset(&mut self, layout: &NodeLayout<D>) {
+        let n = layout.len();
         self.mass.clear();
         self.mass.resize(n, 0.0);
         self.momentum.clear();

@@ -32,7 +32,7 @@
 //! keep the classic treatment (a setup error names them).
 
 use crate::boundary::{ContactKind, DomainWalls};
-use crate::grid::GridSpec;
+use crate::grid::{GridSpec, NodeLayout};
 use crate::math::{Real, Vector};
 use serde::{Deserialize, Serialize};
 
@@ -126,36 +126,84 @@ impl<const D: usize> MirrorWalls<D> {
         }))
     }
 
-    /// Calls `f(ghost, mirror, sign)` for every ghost node of every face, face by face in order.
-    fn for_each_pair(&self, f: impl FnMut(usize, usize, &Vector<D>)) {
-        self.for_each_layer(1, f);
+    /// Marks in `layout` the blocks holding the mirrors of the ghost nodes of its blocks, face
+    /// by face in the fold's order (a corner ghost's mirror across one face is a ghost of a
+    /// later face, whose mirror is then marked too). Call after every other block is marked and
+    /// before [`NodeLayout::finish`].
+    pub fn mark(&self, layout: &mut NodeLayout<D>) {
+        let b = NodeLayout::<D>::BLOCK;
+        for face in self.faces.iter().filter(|f| f.ghosts > 0) {
+            let a = face.axis;
+            let (ghosts, mirrors) = if face.low {
+                (
+                    face.plane - face.ghosts..face.plane,
+                    face.plane + 1..face.plane + face.ghosts + 1,
+                )
+            } else {
+                (
+                    face.plane + 1..face.plane + face.ghosts + 1,
+                    face.plane - face.ghosts..face.plane,
+                )
+            };
+            let ghost_blocks = ghosts.start / b..=(ghosts.end - 1) / b;
+            let mirror_blocks = mirrors.start / b..=(mirrors.end - 1) / b;
+            for i in 0..layout.active().len() {
+                let c = layout.block_coords(layout.active()[i] as usize);
+                if ghost_blocks.contains(&(c[a] as usize)) {
+                    for m in mirror_blocks.clone() {
+                        let mut to = c;
+                        to[a] = m as i64;
+                        layout.mark(to);
+                    }
+                }
+            }
+        }
     }
 
-    /// Calls `f(ghost, mirror, sign)` for the layers `first..=ghosts` beyond each face's plane,
-    /// face by face in order; layer 0 is the plane itself (`ghost == mirror`).
-    fn for_each_layer(&self, first: usize, mut f: impl FnMut(usize, usize, &Vector<D>)) {
-        let size = self.size;
-        let strides: [usize; D] = std::array::from_fn(|a| size[..a].iter().product());
-        let total: usize = size.iter().product();
+    /// Calls `f(ghost, mirror, sign)` (storage indices of `layout`) for every stored ghost node
+    /// of every face, face by face in order.
+    fn for_each_pair(&self, layout: &NodeLayout<D>, f: impl FnMut(usize, usize, &Vector<D>)) {
+        self.for_each_layer(layout, 1, f);
+    }
+
+    /// Calls `f(ghost, mirror, sign)` for the stored nodes of the layers `first..=ghosts`
+    /// beyond each face's plane, face by face in order; layer 0 is the plane itself
+    /// (`ghost == mirror`). Within a face the pairs are disjoint, so their order does not
+    /// change any sum.
+    fn for_each_layer(
+        &self,
+        layout: &NodeLayout<D>,
+        first: usize,
+        mut f: impl FnMut(usize, usize, &Vector<D>),
+    ) {
+        let b = NodeLayout::<D>::BLOCK;
+        let nodes = NodeLayout::<D>::BLOCK_NODES;
         for face in &self.faces {
-            let (a, stride) = (face.axis, strides[face.axis]);
-            // Every node of the slab: index along `a` fixed, the others free.
-            let others = total / size[a];
+            let a = face.axis;
+            let stride = b.pow(a as u32);
             for k in first..=face.ghosts {
                 let (ghost, mirror) = if face.low {
                     (face.plane - k, face.plane + k)
                 } else {
                     (face.plane + k, face.plane - k)
                 };
-                for r in 0..others {
-                    // Split the slab index into the parts below and above axis `a`.
-                    let (below, above) = (r % stride, r / stride);
-                    let base = below + above * stride * size[a];
-                    f(
-                        base + ghost * stride,
-                        base + mirror * stride,
-                        &self.signs[a],
-                    );
+                for s in 0..layout.active().len() {
+                    let origin = layout.slot_origin(s);
+                    if origin[a] as usize != ghost - ghost % b {
+                        continue;
+                    }
+                    for local in (0..nodes).filter(|l| (l / stride) % b == ghost % b) {
+                        let g = s * nodes + local;
+                        let mut node = layout.node(g);
+                        if (0..D).any(|c| node[c] as usize >= self.size[c]) {
+                            continue;
+                        }
+                        node[a] = mirror as i64;
+                        // Stored by `mark`.
+                        if let Some(m) = layout.index(&node) {
+                            f(g, m, &self.signs[a]);
+                        }
+                    }
                 }
             }
         }
@@ -165,8 +213,14 @@ impl<const D: usize> MirrorWalls<D> {
     /// `c`, `c_k += R c_g`. `gravity_impulse` (`Δt g`, m/s) is given for the channel that the grid
     /// update will add `m g Δt` to (the momentum), whose fold gets `m_g (R − I) Δt g` too; the
     /// other channels (the momentum without forces) get none. The ghosts are emptied.
-    pub fn fold(&self, mass: &mut [Real], channels: &mut [(&mut [Vector<D>], Option<Vector<D>>)]) {
-        self.for_each_pair(|g, k, sign| {
+    /// Node arrays are in the order of `layout`.
+    pub fn fold(
+        &self,
+        layout: &NodeLayout<D>,
+        mass: &mut [Real],
+        channels: &mut [(&mut [Vector<D>], Option<Vector<D>>)],
+    ) {
+        self.for_each_pair(layout, |g, k, sign| {
             let m = mass[g];
             for (c, impulse) in channels.iter_mut() {
                 let mut folded = c[g].component_mul(sign);
@@ -186,22 +240,24 @@ impl<const D: usize> MirrorWalls<D> {
     /// face, each ghost's mass is added to its mirror node and a node on the plane, its own
     /// image, doubles; then each ghost takes its mirror's mass. A stencil that reaches across the
     /// plane then sees no density deficit.
-    pub fn mirror_mass(&self, mass: &mut [Real]) {
-        self.for_each_layer(0, |g, k, _| {
+    pub fn mirror_mass(&self, layout: &NodeLayout<D>, mass: &mut [Real]) {
+        self.for_each_layer(layout, 0, |g, k, _| {
             mass[k] += mass[g];
             if g != k {
                 mass[g] = 0.0;
             }
         });
-        self.for_each_pair(|g, k, _| mass[g] = mass[k]);
+        self.for_each_pair(layout, |g, k, _| mass[g] = mass[k]);
     }
 
     /// Sets every ghost's velocity to the reflected velocity of its mirror node (after the
     /// boundaries), face by face in the fold's order: a corner ghost is first given a value from
     /// a ghost of a later axis, then overwritten from a ghost the earlier axis already filled, so
     /// it ends with both reflections.
-    pub fn fill(&self, velocity: &mut [Vector<D>]) {
-        self.for_each_pair(|g, k, sign| velocity[g] = velocity[k].component_mul(sign));
+    pub fn fill(&self, layout: &NodeLayout<D>, velocity: &mut [Vector<D>]) {
+        self.for_each_pair(layout, |g, k, sign| {
+            velocity[g] = velocity[k].component_mul(sign)
+        });
     }
 }
 
@@ -228,18 +284,19 @@ mod tests {
         let mw = MirrorWalls::new(&spec, &walls(ContactKind::Slip, 3))
             .unwrap()
             .unwrap();
-        let n = spec.num_nodes();
+        let layout = NodeLayout::dense(&spec);
+        let n = layout.len();
         let mass: Vec<Real> = (0..n).map(|i| 1.0 + i as Real).collect();
         let p: Vec<Vector<2>> = (0..n)
             .map(|i| Vector::<2>::new(i as Real, -(i as Real) * 0.5))
             .collect();
         let (mut m2, mut p2) = (mass.clone(), p.clone());
         let gdt = Vector::<2>::new(0.0, -0.1);
-        mw.fold(&mut m2, &mut [(&mut p2, Some(gdt))]);
+        mw.fold(&layout, &mut m2, &mut [(&mut p2, Some(gdt))]);
         // Mass is conserved and the ghosts are empty.
         let total: Real = mass.iter().sum();
         assert!((m2.iter().sum::<Real>() - total).abs() < 1e-9 * total);
-        let idx = |i: i64, j: i64| spec.linear_index(&[i, j]).unwrap();
+        let idx = |i: i64, j: i64| layout.index(&[i, j]).unwrap();
         for (i, j) in [
             (0, 5),
             (1, 5),
@@ -276,12 +333,13 @@ mod tests {
         let spec = GridSpec::<3>::new(Vector::<3>::zeros(), 0.1, [12, 13, 14]);
         for (kind, tangent) in [(ContactKind::Slip, 1.0), (ContactKind::Sticky, -1.0)] {
             let mw = MirrorWalls::new(&spec, &walls(kind, 3)).unwrap().unwrap();
-            let n = spec.num_nodes();
+            let layout = NodeLayout::dense(&spec);
+            let n = layout.len();
             let mut v: Vec<Vector<3>> = (0..n)
                 .map(|i| Vector::<3>::new(1.0 + i as Real, 2.0 * i as Real, -(i as Real)))
                 .collect();
-            mw.fill(&mut v);
-            let idx = |i: i64, j: i64, l: i64| spec.linear_index(&[i, j, l]).unwrap();
+            mw.fill(&layout, &mut v);
+            let idx = |i: i64, j: i64, l: i64| layout.index(&[i, j, l]).unwrap();
             // Across the high y-wall (plane j = 10): ghost j = 12 mirrors j = 8.
             let (g, k) = (v[idx(5, 12, 6)], v[idx(5, 8, 6)]);
             assert_eq!(g, Vector::<3>::new(tangent * k.x, -k.y, tangent * k.z));
@@ -306,5 +364,58 @@ mod tests {
         assert!(MirrorWalls::new(&spec, &walls(ContactKind::Slip, 4)).is_err());
         w.treatment = WallTreatment::Nodes;
         assert_eq!(MirrorWalls::new(&spec, &w), Ok(None));
+    }
+
+    #[test]
+    fn sparse_fold_and_fill_equal_the_dense_ones_where_material_is() {
+        // 42³ nodes, walls 3 layers thick: the high x-plane is node 39 (block 4 of 8 nodes),
+        // its ghosts 40 and 41 lie in block 5. Material only in block (5, 0, 0): `mark` must
+        // add block (4, 0, 0), which holds the ghosts' mirrors 38 and 37.
+        let spec = GridSpec::<3>::new(Vector::<3>::zeros(), 0.1, [42, 42, 42]);
+        let mw = MirrorWalls::new(&spec, &walls(ContactKind::Slip, 3))
+            .unwrap()
+            .unwrap();
+        let dense = NodeLayout::dense(&spec);
+        let mut sparse = NodeLayout::default();
+        sparse.begin(&spec);
+        sparse.mark([5, 0, 0]);
+        mw.mark(&mut sparse);
+        sparse.finish();
+        assert_eq!(sparse.active().len(), 2);
+        assert!(sparse.index(&[38, 4, 4]).is_some());
+        let value = |n: &[i64; 3]| {
+            if (40..42).contains(&n[0]) && n[1] < 8 && n[2] < 8 {
+                1.0 + (n[0] + 3 * n[1] + 7 * n[2]) as Real
+            } else {
+                0.0
+            }
+        };
+        let fill = |layout: &NodeLayout<3>| {
+            let m: Vec<Real> = (0..layout.len()).map(|i| value(&layout.node(i))).collect();
+            let p: Vec<Vector<3>> = m
+                .iter()
+                .map(|&m| Vector::<3>::new(m, -m, 0.5 * m))
+                .collect();
+            (m, p)
+        };
+        let gdt = Vector::<3>::new(0.0, 0.0, -0.1);
+        let (mut md, mut pd) = fill(&dense);
+        mw.fold(&dense, &mut md, &mut [(&mut pd, Some(gdt))]);
+        mw.fill(&dense, &mut pd);
+        let (mut ms, mut ps) = fill(&sparse);
+        mw.fold(&sparse, &mut ms, &mut [(&mut ps, Some(gdt))]);
+        mw.fill(&sparse, &mut ps);
+        for i in 0..dense.len() {
+            let node = dense.node(i);
+            match sparse.index(&node) {
+                Some(k) => {
+                    assert_eq!(ms[k].to_bits(), md[i].to_bits(), "{node:?}");
+                    assert_eq!(ps[k], pd[i], "{node:?}");
+                }
+                None => assert_eq!(md[i], 0.0, "{node:?} holds mass but is not stored"),
+            }
+        }
+        // The corner ghost (40, 0, 0) reached (38, 4, 4) across three faces.
+        assert!(ms[sparse.index(&[38, 4, 4]).unwrap()] > 0.0);
     }
 }

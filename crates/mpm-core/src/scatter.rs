@@ -19,7 +19,7 @@
 //!
 //! ```
 //! use mpm_core::scatter::{BlockBuffers, Blocks};
-//! use mpm_core::{GridSpec, Kernel, Real, Stencil, Vector};
+//! use mpm_core::{GridSpec, Kernel, NodeLayout, Real, Stencil, Vector};
 //!
 //! let spec = GridSpec::<2>::new(Vector::<2>::zeros(), 0.1, [21, 21]);
 //! let (x, m, v) = (
@@ -29,9 +29,14 @@
 //! );
 //! let mut blocks = Blocks::default();
 //! blocks.sort(&spec, Kernel::Quadratic, &x);
+//! // The sparse grid: only the blocks the particles reach are stored.
+//! let mut layout = NodeLayout::default();
+//! layout.begin(&spec);
+//! blocks.mark(&mut layout);
+//! layout.finish();
 //! let mut buffers = BlockBuffers::default();
 //! let (mut mass, mut momentum) = (Vec::<Real>::new(), Vec::<Vector<2>>::new());
-//! blocks.scatter(&mut buffers, (&mut mass, &mut momentum), |p, window, (mb, pb)| {
+//! blocks.scatter(&mut buffers, &layout, (&mut mass, &mut momentum), |p, window, (mb, pb)| {
 //!     Stencil::new(Kernel::Quadratic, &spec, &x[p]).for_each(|node, w, _| {
 //!         let k = window.local(&node);
 //!         mb[k] += w * m[p];
@@ -40,9 +45,11 @@
 //! });
 //! assert!((mass.iter().sum::<Real>() - 2.0).abs() < 1e-14);
 //! assert!((momentum.iter().sum::<Vector<2>>().x - 2.0).abs() < 1e-14);
+//! let node = layout.index(&[5, 3]).unwrap(); // the node nearest to the particle
+//! assert!(mass[node] > 0.5);
 //! ```
 
-use crate::grid::GridSpec;
+use crate::grid::{GridSpec, NodeLayout};
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use nalgebra::SMatrix;
@@ -312,6 +319,13 @@ impl<S: BlockStorage> BlockBuffers<S> {
     pub fn bytes(&self) -> usize {
         self.blocks[..self.used].iter().map(S::bytes).sum()
     }
+
+    /// The buffers of the `r`-th non-empty block of the last scatter or window load (the index
+    /// [`Blocks::window_of`] gives).
+    #[inline]
+    pub fn get(&self, r: usize) -> &S {
+        &self.blocks[r]
+    }
 }
 
 /// Particle binning by grid block, reused from step to step.
@@ -320,12 +334,13 @@ pub struct Blocks<const D: usize> {
     /// Grid and kernel of the last sort.
     grid: Option<(GridSpec<D>, Kernel)>,
     dims: [usize; D],
-    /// Block of each particle (`u32::MAX`: not binned).
-    block_of: Vec<u32>,
+    /// Per particle: its block id while sorting, then its range (index into `ranges`);
+    /// `u32::MAX`: not binned.
+    range_of: Vec<u32>,
     counts: Vec<usize>,
     /// Binned particle indices, sorted by block.
     order: Vec<u32>,
-    /// Non-empty blocks: (block id, start, end) ranges into `order`.
+    /// Non-empty blocks: (block id, start, end) ranges into `order`, ascending in block id.
     ranges: Vec<(usize, usize, usize)>,
 }
 
@@ -334,7 +349,7 @@ impl<const D: usize> Default for Blocks<D> {
         Self {
             grid: None,
             dims: [0; D],
-            block_of: Vec::new(),
+            range_of: Vec::new(),
             counts: Vec::new(),
             order: Vec::new(),
             ranges: Vec::new(),
@@ -344,8 +359,8 @@ impl<const D: usize> Default for Blocks<D> {
 
 impl<const D: usize> Blocks<D> {
     /// Block edge length in cells (16 in 2D, 8 in 3D): large enough to amortise the overhang,
-    /// small enough for load balance.
-    pub const BLOCK_CELLS: usize = if D == 2 { 16 } else { 8 };
+    /// small enough for load balance; the blocks of the sparse grid ([`NodeLayout::BLOCK`]).
+    pub const BLOCK_CELLS: usize = NodeLayout::<D>::BLOCK;
 
     /// Bins every particle at positions `x` (m) for scatters with `kernel` onto `spec`. Every
     /// position must have its stencil inside the grid.
@@ -355,8 +370,7 @@ impl<const D: usize> Blocks<D> {
 
     /// Bins the particles `p` at positions `x` (m) with `keep(p)`; the others take part in no
     /// scatter. Every kept position must have its stencil inside the grid. Particle and block
-    /// indices are stored as `u32`: fewer than 2³² − 1 of each (checked in debug builds; a
-    /// dense grid of that many blocks would not fit in memory).
+    /// indices are stored as `u32`: fewer than 2³² − 1 of each (checked in debug builds).
     pub fn sort_where(
         &mut self,
         spec: &GridSpec<D>,
@@ -386,10 +400,10 @@ impl<const D: usize> Blocks<D> {
                 }
                 id as u32
             })
-            .collect_into_vec(&mut self.block_of);
+            .collect_into_vec(&mut self.range_of);
         self.counts.clear();
         self.counts.resize(nblocks + 1, 0);
-        for &id in self.block_of.iter().filter(|&&id| id != u32::MAX) {
+        for &id in self.range_of.iter().filter(|&&id| id != u32::MAX) {
             self.counts[id as usize + 1] += 1;
         }
         self.ranges.clear();
@@ -402,13 +416,18 @@ impl<const D: usize> Blocks<D> {
         }
         self.order.clear();
         self.order.resize(self.counts[nblocks], 0);
-        for (p, &id) in self.block_of.iter().enumerate() {
+        for (p, &id) in self.range_of.iter().enumerate() {
             if id == u32::MAX {
                 continue;
             }
             let id = id as usize;
             self.order[self.counts[id]] = p as u32;
             self.counts[id] += 1;
+        }
+        for (r, &(_, start, end)) in self.ranges.iter().enumerate() {
+            for &p in &self.order[start..end] {
+                self.range_of[p as usize] = r as u32;
+            }
         }
     }
 
@@ -426,26 +445,67 @@ impl<const D: usize> Blocks<D> {
     /// arrays)`. Add [`BlockBuffers::bytes`] for the buffers.
     pub fn bytes(&self) -> (usize, usize) {
         let u = std::mem::size_of::<usize>();
-        let per_particle = (self.block_of.len() + self.order.len()) * std::mem::size_of::<u32>();
+        let per_particle = (self.range_of.len() + self.order.len()) * std::mem::size_of::<u32>();
         let grid = self.counts.len() * u + self.ranges.len() * 3 * u;
         (per_particle, grid)
+    }
+
+    /// Nodes per axis of a block's window for the kernel of the last sort.
+    fn width(&self, kernel: Kernel) -> usize {
+        Self::BLOCK_CELLS + kernel.support() - 1
+    }
+
+    /// The window of the `r`-th non-empty block (the order of [`Self::block_count`]).
+    fn window(&self, r: usize, width: usize) -> BlockWindow<D> {
+        BlockWindow {
+            origin: block_origin(self.ranges[r].0, &self.dims, Self::BLOCK_CELLS as i64),
+            width,
+        }
+    }
+
+    /// Marks in `layout` every grid block that the windows of the non-empty blocks reach: the
+    /// block itself and, for the stencil overhang, its upper neighbours. Call between
+    /// [`NodeLayout::begin`] and [`NodeLayout::finish`]; several binnings (phases) may mark
+    /// one layout.
+    ///
+    /// # Panics
+    /// Before the first [`sort`](Self::sort).
+    pub fn mark(&self, layout: &mut NodeLayout<D>) {
+        assert!(self.grid.is_some(), "Blocks::sort before Blocks::mark");
+        for &(id, _, _) in &self.ranges {
+            let mut c = [0i64; D];
+            let mut rest = id;
+            for a in 0..D {
+                c[a] = (rest % self.dims[a]) as i64;
+                rest /= self.dims[a];
+            }
+            for e in 0..1usize << D {
+                layout.mark(std::array::from_fn(|a| c[a] + ((e >> a) & 1) as i64));
+            }
+        }
     }
 
     /// Scatters every binned particle: `f(p, window, storage)` adds particle `p`'s contributions
     /// to its block's buffers `storage` at the indices `window.local(&node)`. Blocks run in
     /// parallel, each over its particles in index order; then every channel array of `out` is
-    /// resized to the grid's node count, zeroed, and receives the buffers in block order (buffer
-    /// nodes whose gate is zero, or outside the grid, are skipped).
+    /// sized to `layout`'s nodes, zeroed, and each grid block of `layout` receives, in
+    /// parallel, the buffers that reach it in ascending block order (buffer nodes whose gate is
+    /// zero are skipped). `layout` must hold every block [`Self::mark`] marks.
     ///
     /// # Panics
     /// Before the first [`sort`](Self::sort).
-    pub fn scatter<C, F>(&self, buffers: &mut BlockBuffers<C::Storage>, mut out: C, f: F)
-    where
+    pub fn scatter<C, F>(
+        &self,
+        buffers: &mut BlockBuffers<C::Storage>,
+        layout: &NodeLayout<D>,
+        mut out: C,
+        f: F,
+    ) where
         C: Channels,
         F: Fn(usize, &BlockWindow<D>, &mut C::Storage) + Sync,
     {
-        let (spec, kernel) = self.grid.expect("Blocks::sort before Blocks::scatter");
-        let width = Self::BLOCK_CELLS + kernel.support() - 1;
+        let (_, kernel) = self.grid.expect("Blocks::sort before Blocks::scatter");
+        let width = self.width(kernel);
         let len = width.pow(D as u32);
         let enabled = out.enabled();
         if buffers.blocks.len() < self.ranges.len() {
@@ -454,57 +514,163 @@ impl<const D: usize> Blocks<D> {
                 .resize_with(self.ranges.len(), Default::default);
         }
         buffers.used = self.ranges.len();
-        let (dims, order) = (self.dims, &self.order);
-        let window_of = |id: usize| BlockWindow {
-            origin: block_origin(id, &dims, Self::BLOCK_CELLS as i64),
-            width,
-        };
+        let order = &self.order;
         self.ranges
             .par_iter()
             .zip(buffers.blocks.par_iter_mut())
-            .for_each(|(&(id, start, end), buf)| {
-                let window = window_of(id);
+            .enumerate()
+            .for_each(|(r, (&(_, start, end), buf))| {
+                let window = self.window(r, width);
                 buf.reset(enabled, len);
                 for &p in &order[start..end] {
                     f(p as usize, &window, buf);
                 }
             });
-        // The buffers are added in slabs of B node layers along the last axis, slabs in
-        // parallel. Slab z receives from the blocks of block layers z − 1 (their overhang) and
-        // z, in ascending block id, so every node sums its contributions in block order, as a
-        // serial pass over the blocks would.
+        // Each grid block receives from the windows of the blocks at offsets 0 and −1 along
+        // every axis (their own nodes and their overhang), in ascending block id, so every node
+        // sums its contributions in block order, as a serial pass over the blocks would.
         let b = Self::BLOCK_CELLS;
-        let last = D - 1;
-        let layer_blocks: usize = dims[..last].iter().product();
-        let layer_nodes: usize = spec.size[..last].iter().product();
-        let own = b * width.pow(last as u32);
-        let ranges = &self.ranges;
-        let blocks = &buffers.blocks[..ranges.len()];
-        let mut slabs = out.slabs(spec.num_nodes(), b * layer_nodes);
-        slabs.par_iter_mut().enumerate().for_each(|(z, slab)| {
+        let blocks = &buffers.blocks[..self.ranges.len()];
+        let mut slabs = out.slabs(layout.len(), NodeLayout::<D>::BLOCK_NODES);
+        slabs.par_iter_mut().enumerate().for_each(|(s, slab)| {
             C::zero_slab(slab);
-            let from = ranges.partition_point(|r| r.0 < z.saturating_sub(1) * layer_blocks);
-            let to = ranges.partition_point(|r| r.0 < (z + 1) * layer_blocks);
-            let start = z * b * layer_nodes;
-            for (&(id, _, _), buf) in ranges[from..to].iter().zip(&blocks[from..to]) {
-                let window = window_of(id);
-                // The block's own node layers, or the overhang of the layer below.
-                let part = if id / layer_blocks == z {
-                    0..own
-                } else {
-                    own..len
-                };
-                for k in part {
-                    if !buf.received(k) {
-                        continue;
+            let grid_block = layout.block_coords(layout.active()[s] as usize);
+            let mut sources = [(0usize, 0usize, 0usize); 8];
+            let mut count = 0;
+            for e in 0..1usize << D {
+                let mut id = 0;
+                let mut stride = 1;
+                for a in 0..D {
+                    let c = grid_block[a] - ((e >> a) & 1) as i64;
+                    if c < 0 {
+                        id = usize::MAX;
+                        break;
                     }
-                    let Some(i) = spec.linear_index(&window.node(k)) else {
-                        continue;
-                    };
-                    C::add(slab, i - start, buf, k);
+                    id += c as usize * stride;
+                    stride *= self.dims[a];
+                }
+                if id == usize::MAX {
+                    continue;
+                }
+                if let Ok(r) = self.ranges.binary_search_by_key(&id, |r| r.0) {
+                    sources[count] = (id, r, e);
+                    count += 1;
                 }
             }
+            sources[..count].sort_unstable();
+            for &(_, r, e) in &sources[..count] {
+                let buf = &blocks[r];
+                // Along each axis: the window's own nodes 0..B land on the grid block's 0..B;
+                // the overhang B..width of the block below lands on 0..width − B.
+                let lo: [usize; D] = std::array::from_fn(|a| b * ((e >> a) & 1));
+                let ext: [usize; D] =
+                    std::array::from_fn(|a| if (e >> a) & 1 == 0 { b } else { width - b });
+                for_each_row(&ext, |row| {
+                    let (mut k, mut n, mut ks, mut ns) = (lo[0], row[0], 1, 1);
+                    for a in 1..D {
+                        ks *= width;
+                        ns *= b;
+                        k += (lo[a] + row[a]) * ks;
+                        n += row[a] * ns;
+                    }
+                    for i in 0..ext[0] {
+                        if buf.received(k + i) {
+                            C::add(slab, n + i, buf, k + i);
+                        }
+                    }
+                });
+            }
         });
+    }
+
+    /// Copies the grid values `values` (one per node of `layout`) into channel `channel` of
+    /// every block's buffers, sized to the block's window (zero at nodes `layout` does not
+    /// store), so that a gather reads a particle's stencil from its block's window as a
+    /// scatter writes it: see [`Self::window_of`]. `layout` must hold every block
+    /// [`Self::mark`] marks.
+    ///
+    /// # Panics
+    /// Before the first [`sort`](Self::sort).
+    pub fn load_windows<S, T>(
+        &self,
+        buffers: &mut BlockBuffers<S>,
+        layout: &NodeLayout<D>,
+        values: &[T],
+        channel: impl Fn(&mut S) -> &mut Vec<T> + Sync,
+    ) where
+        S: BlockStorage,
+        T: NodeValue,
+    {
+        let (_, kernel) = self.grid.expect("Blocks::sort before Blocks::load_windows");
+        let (width, b) = (self.width(kernel), Self::BLOCK_CELLS);
+        if buffers.blocks.len() < self.ranges.len() {
+            buffers
+                .blocks
+                .resize_with(self.ranges.len(), Default::default);
+        }
+        buffers.used = buffers.used.max(self.ranges.len());
+        buffers.blocks[..self.ranges.len()]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(r, buf)| {
+                let window = self.window(r, width);
+                let out = channel(buf);
+                out.clear();
+                out.resize(width.pow(D as u32), T::zero());
+                let ext = [width; D];
+                for_each_row(&ext, |row| {
+                    let mut node = window.origin;
+                    for a in 1..D {
+                        node[a] += row[a] as i64;
+                    }
+                    let k = window.local(&node);
+                    // The row crosses one block boundary along the first axis.
+                    for (from, to) in [(0, b), (b, width)] {
+                        let mut start = node;
+                        start[0] += from as i64;
+                        if let Some(i) = layout.index(&start) {
+                            out[k + from..k + to].copy_from_slice(&values[i..i + to - from]);
+                        }
+                    }
+                });
+            });
+    }
+
+    /// The binned particle `p`'s block: its index among the non-empty blocks (the buffers'
+    /// order) and its window, or `None` when `p` was not binned.
+    ///
+    /// # Panics
+    /// Before the first [`sort`](Self::sort).
+    #[inline]
+    pub fn window_of(&self, p: usize) -> Option<(usize, BlockWindow<D>)> {
+        let (_, kernel) = self.grid.expect("Blocks::sort before Blocks::window_of");
+        let r = *self.range_of.get(p)?;
+        (r != u32::MAX).then(|| (r as usize, self.window(r as usize, self.width(kernel))))
+    }
+}
+
+/// Calls `f(row)` for every row of the box `0..ext[0] × … × 0..ext[D−1]` along the first axis:
+/// `row[0]` is 0 and `row[a]`, `a ≥ 1`, runs over `0..ext[a]`, last axis slowest.
+#[inline]
+fn for_each_row<const D: usize>(ext: &[usize; D], mut f: impl FnMut(&[usize; D])) {
+    if ext.contains(&0) {
+        return;
+    }
+    let mut row = [0usize; D];
+    loop {
+        f(&row);
+        let mut a = 1;
+        loop {
+            if a == D {
+                return;
+            }
+            row[a] += 1;
+            if row[a] < ext[a] {
+                break;
+            }
+            row[a] = 0;
+            a += 1;
+        }
     }
 }
 
@@ -550,7 +716,32 @@ mod tests {
 
     type Sums<const D: usize> = (Vec<Real>, Vec<Vector<D>>);
 
-    /// Block scatter of `Σ w m` and `Σ w m v`.
+    /// The sparse layout of the blocks `blocks` reaches.
+    fn layout_of<const D: usize>(spec: &GridSpec<D>, blocks: &Blocks<D>) -> NodeLayout<D> {
+        let mut layout = NodeLayout::default();
+        layout.begin(spec);
+        blocks.mark(&mut layout);
+        layout.finish();
+        layout
+    }
+
+    /// Values stored in `layout`'s order spread onto the dense grid (zero where not stored).
+    fn to_dense<const D: usize, T: NodeValue>(
+        spec: &GridSpec<D>,
+        layout: &NodeLayout<D>,
+        values: &[T],
+    ) -> Vec<T> {
+        assert_eq!(values.len(), layout.len());
+        (0..spec.num_nodes())
+            .map(|i| {
+                layout
+                    .index(&spec.multi_index(i))
+                    .map_or(T::zero(), |k| values[k])
+            })
+            .collect()
+    }
+
+    /// Block scatter of `Σ w m` and `Σ w m v`, spread onto the dense grid.
     fn block_scatter<const D: usize>(
         blocks: &Blocks<D>,
         buffers: &mut BlockBuffers<Sums<D>>,
@@ -558,9 +749,11 @@ mod tests {
         kernel: Kernel,
         c: &Cloud<D>,
     ) -> Sums<D> {
+        let layout = layout_of(spec, blocks);
         let (mut mass, mut momentum) = (Vec::new(), Vec::new());
         blocks.scatter(
             buffers,
+            &layout,
             (&mut mass, &mut momentum),
             |p, window, (mb, pb)| {
                 Stencil::new(kernel, spec, &c.x[p]).for_each(|node, w, _| {
@@ -570,7 +763,10 @@ mod tests {
                 });
             },
         );
-        (mass, momentum)
+        (
+            to_dense(spec, &layout, &mass),
+            to_dense(spec, &layout, &momentum),
+        )
     }
 
     /// The plain serial scatter in particle order, straight into the grid.
@@ -730,9 +926,11 @@ mod tests {
         let window_len = (Blocks::<2>::BLOCK_CELLS + 2).pow(2);
         let per_block = window_len * (8 + 16);
         assert_eq!(buffers.bytes(), blocks.block_count() * per_block);
+        let layout = layout_of(&spec, &blocks);
         let (mut mass, mut momentum) = (Vec::new(), Vec::new());
         blocks.scatter(
             &mut BlockBuffers::default(),
+            &layout,
             (&mut mass,),
             |p, window, (mb,)| {
                 Stencil::new(kernel, &spec, &c.x[p]).for_each(|node, w, _| {
@@ -742,6 +940,7 @@ mod tests {
         );
         blocks.scatter(
             &mut BlockBuffers::default(),
+            &layout,
             (&mut momentum,),
             |p, window, (pb,)| {
                 Stencil::new(kernel, &spec, &c.x[p]).for_each(|node, w, _| {
@@ -749,7 +948,11 @@ mod tests {
                 });
             },
         );
-        assert_eq!(bits(&both), bits(&(mass, momentum)));
+        let separate = (
+            to_dense(&spec, &layout, &mass),
+            to_dense(&spec, &layout, &momentum),
+        );
+        assert_eq!(bits(&both), bits(&separate));
 
         // Three channels of other types, one of them switched off: a u32 count of the
         // particle–node pairs and an absent channel, which leaves its block buffers empty.
@@ -758,6 +961,7 @@ mod tests {
         let off: Option<&mut Vec<Vector<2>>> = None;
         blocks.scatter(
             &mut buffers3,
+            &layout,
             (&mut mass, off, Some(&mut count)),
             |p, window, (mb, unused, nb)| {
                 assert!(unused.is_empty());
@@ -768,8 +972,8 @@ mod tests {
                 });
             },
         );
-        assert_eq!(mass.len(), spec.num_nodes());
-        assert!(mass
+        assert_eq!(mass.len(), layout.len());
+        assert!(to_dense(&spec, &layout, &mass)
             .iter()
             .zip(&both.0)
             .all(|(a, b)| a.to_bits() == b.to_bits()));
@@ -797,6 +1001,84 @@ mod tests {
         for i in 0..spec.num_nodes() {
             assert!((sums.0[i] - serial.0[i]).abs() <= 1e-13 * (1.0 + serial.0[i]));
             assert_eq!(sums.0[i] == 0.0, serial.0[i] == 0.0);
+        }
+    }
+
+    /// A cloud in one corner of a large grid: the layout stores only the blocks it reaches,
+    /// the scatter still equals the plain serial one, and the windows loaded back from the
+    /// sparse storage give every particle its stencil's node values.
+    fn sparse_corner<const D: usize>(size: [usize; D], kernel: Kernel) {
+        let spec = GridSpec::new(Vector::<D>::zeros(), 0.1, size);
+        // Particles in grid units [2, 13]: the first two blocks along each axis (and their
+        // overhang into the third in 3D).
+        let mut r = Lcg(17);
+        let n = 1500;
+        let c = Cloud {
+            x: (0..n)
+                .map(|_| Vector::<D>::from_fn(|_, _| (2.0 + 11.0 * r.next()) * spec.dx))
+                .collect(),
+            m: (0..n).map(|_| 0.5 + r.next()).collect(),
+            v: (0..n)
+                .map(|_| Vector::<D>::from_fn(|_, _| r.next() - 0.5))
+                .collect(),
+        };
+        let mut blocks = Blocks::default();
+        blocks.sort(&spec, kernel, &c.x);
+        let layout = layout_of(&spec, &blocks);
+        // At most the first three blocks along each axis (two with particles, one overhang).
+        assert!(layout.active().len() <= 3usize.pow(D as u32));
+        assert_eq!(
+            layout.len(),
+            layout.active().len() * NodeLayout::<D>::BLOCK_NODES
+        );
+        assert!(layout.len() * 8 < spec.num_nodes(), "the layout is sparse");
+        // Storage index and multi-index are inverse.
+        for i in (0..layout.len()).step_by(7) {
+            let node = layout.node(i);
+            if (0..D).all(|a| (node[a] as usize) < size[a]) {
+                assert_eq!(layout.index(&node), Some(i));
+            }
+        }
+        assert_eq!(layout.index(&[size[0] as i64 - 1; D]), None);
+        let mut buffers = BlockBuffers::default();
+        let sums = block_scatter(&blocks, &mut buffers, &spec, kernel, &c);
+        let serial = serial_scatter(&spec, kernel, &c, |_| true);
+        for i in 0..spec.num_nodes() {
+            assert!((sums.0[i] - serial.0[i]).abs() <= 1e-13 * (1.0 + serial.0[i]));
+            assert!((sums.1[i] - serial.1[i]).norm() <= 1e-13 * (1.0 + serial.0[i]));
+        }
+        // Node values (here m_i + 1 at stored nodes) read back through the windows.
+        let mut stored_values = vec![0.0; layout.len()];
+        for (k, v) in stored_values.iter_mut().enumerate() {
+            let node = layout.node(k);
+            if let Some(i) = spec.linear_index(&node) {
+                *v = serial.0[i] + 1.0;
+            }
+        }
+        blocks.load_windows(&mut buffers, &layout, &stored_values, |s| &mut s.0);
+        for p in 0..n {
+            let (r, window) = blocks.window_of(p).unwrap();
+            let values = &buffers.get(r).0;
+            Stencil::new(kernel, &spec, &c.x[p]).for_each(|node, _, _| {
+                let i = spec.linear_index(&node).unwrap();
+                assert_eq!(values[window.local(&node)], serial.0[i] + 1.0);
+            });
+        }
+    }
+
+    #[test]
+    fn sparse_layout_stores_only_the_reached_blocks_and_windows_read_them_back() {
+        for kernel in [Kernel::Linear, Kernel::Quadratic, Kernel::Cubic] {
+            sparse_corner([200, 150], kernel);
+            sparse_corner([90, 80, 70], kernel);
+        }
+        // The dense layout stores every block.
+        let spec = GridSpec::<3>::new(Vector::<3>::zeros(), 0.1, [17, 9, 8]);
+        let dense = NodeLayout::dense(&spec);
+        assert_eq!(dense.active().len(), 3 * 2);
+        for i in 0..spec.num_nodes() {
+            let node = spec.multi_index(i);
+            assert_eq!(dense.node(dense.index(&node).unwrap()), node);
         }
     }
 }

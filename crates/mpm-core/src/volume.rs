@@ -1,21 +1,22 @@
 //! Particle volumes from grid density estimation (multigrid paper Eq. 4):
 //! `ρ_i = m_i/Δx^D`, `ρ_p = Σ_i ρ_i w_ip`, `V_p = m_p/ρ_p`.
 
-use crate::grid::GridSpec;
+use crate::grid::{GridSpec, NodeLayout};
 use crate::kernel::{Kernel, Stencil};
 use crate::math::{Real, Vector};
 
-/// Density (kg/m^D) at `x` (m) gathered from node masses `grid_mass` (kg) with `kernel`.
-/// Nodes outside the grid contribute nothing.
+/// Density (kg/m^D) at `x` (m) gathered from node masses `grid_mass` (kg, in the order of
+/// `layout`) with `kernel`. Nodes outside the grid or not stored contribute nothing.
 pub fn density_at<const D: usize>(
     spec: &GridSpec<D>,
     kernel: Kernel,
+    layout: &NodeLayout<D>,
     grid_mass: &[Real],
     x: &Vector<D>,
 ) -> Real {
     let mut rho = 0.0;
     Stencil::new(kernel, spec, x).for_each(|node, w, _| {
-        if let Some(i) = spec.linear_index(&node) {
+        if let Some(i) = layout.index(&node) {
             rho += w * grid_mass[i];
         }
     });
@@ -23,22 +24,32 @@ pub fn density_at<const D: usize>(
 }
 
 /// Node masses (kg) from particle masses (serial scatter, for set-up; solvers keep their own
-/// parallel P2G).
+/// parallel P2G), stored sparsely: the layout of the blocks the particles' stencils reach, and
+/// the masses in its order.
 pub fn grid_mass<const D: usize>(
     spec: &GridSpec<D>,
     kernel: Kernel,
     x: &[Vector<D>],
     mass: &[Real],
-) -> Vec<Real> {
-    let mut m = vec![0.0; spec.num_nodes()];
+) -> (NodeLayout<D>, Vec<Real>) {
+    let b = NodeLayout::<D>::BLOCK as i64;
+    let mut layout = NodeLayout::default();
+    layout.begin(spec);
+    for xp in x {
+        Stencil::new(kernel, spec, xp).for_each(|node, _, _| {
+            layout.mark(node.map(|n| n.div_euclid(b)));
+        });
+    }
+    layout.finish();
+    let mut m = vec![0.0; layout.len()];
     for (xp, mp) in x.iter().zip(mass) {
         Stencil::new(kernel, spec, xp).for_each(|node, w, _| {
-            if let Some(i) = spec.linear_index(&node) {
+            if let Some(i) = layout.index(&node) {
                 m[i] += w * mp;
             }
         });
     }
-    m
+    (layout, m)
 }
 
 /// Initial particle volumes (m^D) by density estimation (Eq. 4).
@@ -48,10 +59,10 @@ pub fn estimate_volumes<const D: usize>(
     x: &[Vector<D>],
     mass: &[Real],
 ) -> Vec<Real> {
-    let gm = grid_mass(spec, kernel, x, mass);
+    let (layout, gm) = grid_mass(spec, kernel, x, mass);
     x.iter()
         .zip(mass)
-        .map(|(xp, mp)| mp / density_at(spec, kernel, &gm, xp))
+        .map(|(xp, mp)| mp / density_at(spec, kernel, &layout, &gm, xp))
         .collect()
 }
 

@@ -1,9 +1,20 @@
 //! The explicit solver's use of the deterministic block scatter of [`mpm_core::scatter`]: one
 //! binning per phase and one set of block buffers shared by every scatter of that phase (P2G,
-//! the mass scatter, the coupling geometry, mixing), with up to four channels.
+//! the mass scatter, the coupling geometry, mixing), with up to four channels. For G2P the
+//! same buffers hold each block's window of grid velocities ([`Blocks::load_velocities`]), so
+//! a particle gathers from the few kilobytes of its block's window, whatever the layout of the
+//! sparse grid.
 
 use mpm_core::scatter::{self, BlockBuffers, BlockWindow};
-use mpm_core::{GridSpec, Kernel, Real, Vector};
+use mpm_core::{GridSpec, Kernel, NodeLayout, Real, Vector};
+
+/// The grid a stage works on: its geometry, the step's sparse layout and the kernel.
+#[derive(Clone, Copy)]
+pub(crate) struct GridRef<'a, const D: usize> {
+    pub spec: &'a GridSpec<D>,
+    pub layout: &'a NodeLayout<D>,
+    pub kernel: Kernel,
+}
 
 /// Block storage of the explicit scatters: two scalar and two vector channels, in the order
 /// `(scalar gate, vector, vector, scalar)`.
@@ -53,13 +64,59 @@ impl<const D: usize> Blocks<D> {
         (particles, grid + self.buffers.bytes())
     }
 
+    /// Marks the grid blocks this phase's scatters and gathers reach in `layout`.
+    pub fn mark(&self, layout: &mut NodeLayout<D>) {
+        self.binning.mark(layout);
+    }
+
     /// Scatters every binned particle with `f(particle, window, buffers)` into its block's
-    /// buffers, blocks in parallel, then adds the buffers to `out` in block order.
-    pub fn scatter<F>(&mut self, out: Sums<'_, D>, f: F)
+    /// buffers, blocks in parallel, then adds the buffers to `out` (in the order of `layout`)
+    /// in block order.
+    pub fn scatter<F>(&mut self, layout: &NodeLayout<D>, out: Sums<'_, D>, f: F)
     where
         F: Fn(usize, &BlockWindow<D>, &mut Storage<D>) + Sync,
     {
         let channels = (out.mass, out.momentum, out.momentum0, out.extra);
-        self.binning.scatter(&mut self.buffers, channels, f);
+        self.binning.scatter(&mut self.buffers, layout, channels, f);
     }
+
+    /// Loads the grid velocities `velocity` (m/s) and, for FLIP, the velocities before the
+    /// update `old` (m/s), both in the order of `layout`, into every block's window (the vector
+    /// channels of its buffers) for [`Self::velocities`].
+    pub fn load_velocities(
+        &mut self,
+        layout: &NodeLayout<D>,
+        velocity: &[Vector<D>],
+        old: Option<&[Vector<D>]>,
+    ) {
+        let binning = &self.binning;
+        binning.load_windows(&mut self.buffers, layout, velocity, |s| &mut s.1);
+        if let Some(old) = old {
+            binning.load_windows(&mut self.buffers, layout, old, |s| &mut s.2);
+        }
+    }
+
+    /// The window of particle `p`'s block with its velocities and, when they were loaded, the
+    /// old velocities (empty otherwise), as [`Self::load_velocities`] left them; `None` when
+    /// `p` is not binned in this phase.
+    #[inline]
+    pub fn velocities(&self, p: usize) -> Option<Window<'_, D>> {
+        let (r, window) = self.binning.window_of(p)?;
+        let buf = self.buffers.get(r);
+        Some(Window {
+            window,
+            velocity: &buf.1,
+            old: &buf.2,
+        })
+    }
+}
+
+/// A block's window of node velocities for G2P.
+pub(crate) struct Window<'a, const D: usize> {
+    /// The nodes the window covers.
+    pub window: BlockWindow<D>,
+    /// Node velocities (m/s), indexed by `window.local`.
+    pub velocity: &'a [Vector<D>],
+    /// Node velocities before the grid update (m/s), FLIP only; empty otherwise.
+    pub old: &'a [Vector<D>],
 }

@@ -3,13 +3,13 @@
 //! coupling exchanges equal and opposite impulses node by node, so the total momentum of all
 //! phases is unchanged (to round-off).
 
-use crate::blocks::{Blocks, Sums};
+use crate::blocks::{Blocks, GridRef, Sums};
 use crate::materials::MaterialView;
 use crate::multigrid::{
     Activation, ContactCoupling, Coupling, CouplingKind, Drag, Friction, PressureBuoyancy,
 };
 use crate::p2g::mls_gradient;
-use mpm_core::{GridNodes, GridSpec, Kernel, Material, Particles, Real, Stencil, Vector};
+use mpm_core::{GridNodes, GridSpec, Material, Particles, Real, Stencil, Vector};
 use rayon::prelude::*;
 
 /// What the couplings need from a phase besides its grid mass and velocity, scattered in one
@@ -62,8 +62,11 @@ pub(crate) fn geometry_needs(count: usize, couplings: &[Coupling]) -> Vec<Geomet
 
 /// Scatters the geometry of the particles binned in `blocks` (one phase).
 pub(crate) fn scatter_geometry<const D: usize>(
-    spec: &GridSpec<D>,
-    kernel: Kernel,
+    GridRef {
+        spec,
+        layout,
+        kernel,
+    }: GridRef<'_, D>,
     particles: &Particles<D>,
     materials: &MaterialView<'_>,
     blocks: &mut Blocks<D>,
@@ -77,27 +80,31 @@ pub(crate) fn scatter_geometry<const D: usize>(
         momentum0: pressure.then_some(&mut out.pressure),
         extra: None,
     };
-    blocks.scatter(sums, |p, window, (rest_i, normal, pressure_force, _)| {
-        let (xp, m) = (particles.x[p], particles.mass[p]);
-        let material = materials.get(particles, p);
-        let rest = m * material.density();
-        let pv = match material.as_ref() {
-            Material::Fluid(f) if pressure => {
-                let j = particles.jacobian_of(p);
-                f.pressure(j) * j * particles.volume0[p]
-            }
-            _ => 0.0,
-        };
-        Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
-            let d = spec.node_position(&node) - xp;
-            let k = window.local(&node);
-            rest_i[k] += w * rest;
-            normal[k] += d * (w * m);
-            if pressure {
-                pressure_force[k] += mls_gradient(minv, w, &grad, &d) * pv;
-            }
-        });
-    });
+    blocks.scatter(
+        layout,
+        sums,
+        |p, window, (rest_i, normal, pressure_force, _)| {
+            let (xp, m) = (particles.x[p], particles.mass[p]);
+            let material = materials.get(particles, p);
+            let rest = m * material.density();
+            let pv = match material.as_ref() {
+                Material::Fluid(f) if pressure => {
+                    let j = particles.jacobian_of(p);
+                    f.pressure(j) * j * particles.volume0[p]
+                }
+                _ => 0.0,
+            };
+            Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
+                let d = spec.node_position(&node) - xp;
+                let k = window.local(&node);
+                rest_i[k] += w * rest;
+                normal[k] += d * (w * m);
+                if pressure {
+                    pressure_force[k] += mls_gradient(minv, w, &grad, &d) * pv;
+                }
+            });
+        },
+    );
 }
 
 /// Node data of one phase that a coupling reads.

@@ -7,10 +7,12 @@
 //! and puts it back before the retry.
 //!
 //! With the quadratic and cubic kernels the gather walks the stencil by rows along the first
-//! axis ([`AxisStencil`]), reading the node velocities of a row from consecutive grid entries;
-//! the linear kernel, and particles whose stencil reaches outside the grid, take the general
-//! path over [`Stencil`].
+//! axis ([`AxisStencil`]), reading the node velocities of a row from consecutive entries of the
+//! particle's block window ([`crate::blocks::Blocks::velocities`]), the nodes P2G scattered
+//! that block into; the linear kernel, and a particle whose stencil leaves its window, take the
+//! general path over [`Stencil`] and the sparse grid's [`NodeLayout`].
 
+use crate::blocks::{Blocks, Window};
 use crate::materials::MaterialView;
 use crate::multigrid::{Dissolution, Mixing, Porous};
 use crate::p2g::mls_gradient;
@@ -18,8 +20,8 @@ use crate::params::{SoftWalls, Transfer};
 use mpm_core::material::PlasticState;
 use mpm_core::solver::nan_max;
 use mpm_core::{
-    AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Location, Material, Matrix, Particles,
-    Real, Stencil, Vector, Violation,
+    AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Location, Material, Matrix, NodeLayout,
+    Particles, Real, Stencil, Vector, Violation,
 };
 use rayon::prelude::*;
 
@@ -203,6 +205,8 @@ impl<const D: usize> Chunk<'_, D> {
 /// What G2P needs besides particles and grid.
 pub(crate) struct G2pContext<'a, const D: usize> {
     pub spec: &'a GridSpec<D>,
+    /// The sparse grid's stored nodes.
+    pub layout: &'a NodeLayout<D>,
     pub kernel: Kernel,
     pub transfer: Transfer,
     pub materials: MaterialView<'a>,
@@ -235,6 +239,14 @@ pub(crate) struct ExtraContext<'a> {
 /// the affine field C.
 type Gathered<const D: usize> = (Vector<D>, Vector<D>, Matrix<D>);
 
+/// Where a particle gathers from: its block's window, its phase's grid and, with FLIP, the
+/// grid's velocities before the update (m/s).
+type Source<'a, const D: usize> = (
+    Option<Window<'a, D>>,
+    &'a GridNodes<D>,
+    Option<&'a [Vector<D>]>,
+);
+
 impl<const D: usize> G2pContext<'_, D>
 where
     Dim<D>: DimOps<D>,
@@ -242,11 +254,13 @@ where
     /// Gathers from the grid and writes every particle's new state in place, with the guard
     /// checks. Returns the largest signal speed `max_p(|v_p| + c_p)` (m/s) of the new state
     /// when [`Self::signal_speed`] is set (0 otherwise), or the first (lowest-index) failing
-    /// particle; the particles then hold the step's partial result. `grids` and, with FLIP,
-    /// `velocity_old` have one entry per phase.
+    /// particle; the particles then hold the step's partial result. `blocks`, `grids` and, with
+    /// FLIP, `velocity_old` have one entry per phase; each phase's block windows must hold its
+    /// grid's velocities ([`Blocks::load_velocities`]).
     pub fn advance(
         &self,
         particles: &mut Particles<D>,
+        blocks: &[Blocks<D>],
         grids: &[GridNodes<D>],
         velocity_old: Option<&[Vec<Vector<D>>]>,
         dt: Real,
@@ -269,7 +283,9 @@ where
                     let p = chunk.start + i;
                     let k = fixed.phase_of(p) as usize;
                     let v0 = velocity_old.map(|v| v[k].as_slice());
-                    let (u, check, c) = self.particle(fixed, &grids[k], v0, p, &chunk.old(i), dt);
+                    let window = blocks[k].velocities(p);
+                    let (u, check, c) =
+                        self.particle(fixed, (window, &grids[k], v0), p, &chunk.old(i), dt);
                     chunk.write(i, &u);
                     signal = nan_max(signal, c);
                     if fault.is_none() {
@@ -286,28 +302,29 @@ where
         }
     }
 
-    /// The PIC velocity, FLIP increment and C of a particle at `xp`, by rows of the stencil.
-    /// `None` when the stencil reaches outside the grid.
+    /// The PIC velocity, FLIP increment and C of a particle at `xp`, by rows of the stencil read
+    /// from its block's window (`flip`: with the FLIP increment). `None` when the stencil
+    /// leaves the window.
     fn gather_rows<const S: usize>(
         &self,
-        grid: &GridNodes<D>,
-        velocity_old: Option<&[Vector<D>]>,
+        win: &Window<'_, D>,
+        flip: bool,
         minv: Real,
         xp: &Vector<D>,
     ) -> Option<Gathered<D>> {
-        let spec = self.spec;
-        let st = AxisStencil::<D, S>::new(self.kernel, spec, xp);
+        let st = AxisStencil::<D, S>::new(self.kernel, self.spec, xp);
+        let (origin, width) = (win.window.origin(), win.window.width());
         let mut stride = [0usize; D];
         let mut first = 0usize;
         let mut s = 1usize;
         for a in 0..D {
-            let b = st.base[a];
-            if b < 0 || b as usize + S > spec.size[a] {
+            let b = st.base[a] - origin[a];
+            if b < 0 || b as usize + S > width {
                 return None;
             }
             stride[a] = s;
             first += b as usize * s;
-            s *= spec.size[a];
+            s *= width;
         }
         let (mut v, mut dv, mut b) = (
             Vector::<D>::zeros(),
@@ -319,15 +336,15 @@ where
             for a in 1..D {
                 i0 += o[a] * stride[a];
             }
-            let row = &grid.velocity[i0..i0 + S];
+            let row = &win.velocity[i0..i0 + S];
             let (mut sum, mut col0) = (Vector::<D>::zeros(), Vector::<D>::zeros());
             for i in 0..S {
                 let w = st.w[0][i] * wr;
                 let wv = row[i] * w;
                 sum += wv;
                 col0 += wv * st.d[0][i];
-                if let Some(v0) = velocity_old {
-                    dv += (row[i] - v0[i0 + i]) * w;
+                if flip {
+                    dv += (row[i] - win.old[i0 + i]) * w;
                 }
             }
             v += sum;
@@ -342,7 +359,7 @@ where
     }
 
     /// The PIC velocity, FLIP increment and C of a particle at `xp` over the general stencil
-    /// (any kernel; nodes outside the grid are skipped).
+    /// (any kernel; nodes outside the grid or not stored are skipped).
     fn gather_nodes(
         &self,
         grid: &GridNodes<D>,
@@ -357,7 +374,7 @@ where
             Matrix::<D>::zeros(),
         );
         Stencil::new(self.kernel, spec, xp).for_each(|node, w, grad| {
-            let Some(i) = spec.linear_index(&node) else {
+            let Some(i) = self.layout.index(&node) else {
                 return;
             };
             let vi = grid.velocity[i];
@@ -371,15 +388,14 @@ where
         (v_pic, dv, c)
     }
 
-    fn gather(
-        &self,
-        grid: &GridNodes<D>,
-        velocity_old: Option<&[Vector<D>]>,
-        xp: &Vector<D>,
-    ) -> Gathered<D> {
-        let rows = match (self.kernel, self.kernel.mls_inertia_inv(self.spec.dx)) {
-            (Kernel::Quadratic, Some(minv)) => self.gather_rows::<3>(grid, velocity_old, minv, xp),
-            (Kernel::Cubic, Some(minv)) => self.gather_rows::<4>(grid, velocity_old, minv, xp),
+    fn gather(&self, (window, grid, velocity_old): Source<'_, D>, xp: &Vector<D>) -> Gathered<D> {
+        let flip = velocity_old.is_some();
+        let rows = match (window, self.kernel.mls_inertia_inv(self.spec.dx)) {
+            (Some(win), Some(minv)) => match self.kernel {
+                Kernel::Quadratic => self.gather_rows::<3>(&win, flip, minv, xp),
+                Kernel::Cubic => self.gather_rows::<4>(&win, flip, minv, xp),
+                Kernel::Linear => None,
+            },
             _ => None,
         };
         rows.unwrap_or_else(|| self.gather_nodes(grid, velocity_old, xp))
@@ -388,15 +404,14 @@ where
     fn particle(
         &self,
         particles: &Particles<D>,
-        grid: &GridNodes<D>,
-        velocity_old: Option<&[Vector<D>]>,
+        source: Source<'_, D>,
         p: usize,
         old: &Old<D>,
         dt: Real,
     ) -> (Update<D>, Option<(Violation, Real)>, Real) {
         let spec = self.spec;
         let xp = old.x;
-        let (v_pic, dv, c) = self.gather(grid, velocity_old, &xp);
+        let (v_pic, dv, c) = self.gather(source, &xp);
         let mut v = match self.transfer {
             Transfer::Flip { blend } => (old.v + dv) * blend + v_pic * (1.0 - blend),
             Transfer::Apic | Transfer::Pic => v_pic,
@@ -466,7 +481,7 @@ where
         let dissolving = ctx.dissolution.filter(|d| d.solid == particles.material[p]);
         let (mut phi, mut wet, mut c_bar) = (0.0, 0.0, 0.0);
         Stencil::new(self.kernel, spec, &particles.x[p]).for_each(|node, w, _| {
-            let Some(i) = spec.linear_index(&node) else {
+            let Some(i) = self.layout.index(&node) else {
                 return;
             };
             if ctx.porous.is_some()

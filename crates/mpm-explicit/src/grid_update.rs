@@ -1,8 +1,9 @@
 //! Grid update: velocities from momenta, gravity, boundary conditions, and the grid guard check.
 
+use crate::blocks::GridRef;
 use mpm_core::boundary::Boundaries;
 use mpm_core::quasistatic::Damping;
-use mpm_core::{GridNodes, GridSpec, Location, Real, Vector, Violation};
+use mpm_core::{GridNodes, GridSpec, Location, NodeLayout, Real, Vector, Violation};
 use rayon::prelude::*;
 
 /// The accelerations and damping of a grid update.
@@ -19,9 +20,10 @@ pub(crate) struct NodeForces<const D: usize> {
 /// `momentum0` (the momentum P2G transferred without forces) into the pre-update velocities in
 /// place. With damping, `momentum0` must be given: the unbalanced force is
 /// `f_i = (p_i − p⁰_i)/Δt + m_i g` and the velocity `Damping::velocity` of `p⁰_i/m_i` and `f_i`.
-/// Returns the first node (lowest index) with a non-finite velocity.
+/// Node arrays are in the order of the grid's layout. Returns the first stored node with a
+/// non-finite velocity, named by its index on the full grid.
 pub(crate) fn update<const D: usize>(
-    spec: &GridSpec<D>,
+    GridRef { spec, layout, .. }: GridRef<'_, D>,
     grid: &mut GridNodes<D>,
     momentum0: Option<&mut Vec<Vector<D>>>,
     boundaries: Option<&Boundaries<D>>,
@@ -37,7 +39,7 @@ pub(crate) fn update<const D: usize>(
     let gravity = forces.gravity;
     let walls = |i: usize, v: &mut Vector<D>| {
         if let Some(b) = boundaries.filter(|b| !b.is_empty()) {
-            b.apply(spec, t, &spec.multi_index(i), v);
+            b.apply(spec, t, &layout.node(i), v);
         }
     };
     let nodes = velocity
@@ -72,13 +74,14 @@ pub(crate) fn update<const D: usize>(
                 }
             }),
     }
-    check_finite(velocity)
+    check_finite(spec, layout, velocity)
 }
 
 /// Applies `boundaries` at time `t` to the velocities of the nodes that have mass, then checks
 /// them as [`update`] does.
 pub(crate) fn apply_boundaries<const D: usize>(
     spec: &GridSpec<D>,
+    layout: &NodeLayout<D>,
     grid: &mut GridNodes<D>,
     boundaries: &Boundaries<D>,
     t: Real,
@@ -90,19 +93,24 @@ pub(crate) fn apply_boundaries<const D: usize>(
             .zip(mass.par_iter())
             .enumerate()
             .filter(|(_, (_, &m))| m > 0.0)
-            .for_each(|(i, (v, _))| boundaries.apply(spec, t, &spec.multi_index(i), v));
+            .for_each(|(i, (v, _))| boundaries.apply(spec, t, &layout.node(i), v));
     }
-    check_finite(&grid.velocity)
+    check_finite(spec, layout, &grid.velocity)
 }
 
-/// The first node (lowest index) with a non-finite velocity, if any.
-fn check_finite<const D: usize>(velocity: &[Vector<D>]) -> Result<(), (Location, Violation, Real)> {
+/// The first stored node (lowest storage index) with a non-finite velocity, if any, named by
+/// its index on the full grid.
+fn check_finite<const D: usize>(
+    spec: &GridSpec<D>,
+    layout: &NodeLayout<D>,
+    velocity: &[Vector<D>],
+) -> Result<(), (Location, Violation, Real)> {
     match velocity
         .par_iter()
         .position_first(|v| !v.iter().all(|c| c.is_finite()))
     {
         Some(i) => Err((
-            Location::Node(i),
+            Location::Node(spec.linear_index(&layout.node(i)).unwrap_or(usize::MAX)),
             Violation::NonFinite("grid velocity"),
             velocity[i].norm(),
         )),

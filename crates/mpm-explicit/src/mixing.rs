@@ -6,9 +6,9 @@
 //! `α_i = Σ_p w_ip V⁰_p α_p / V_i`, so the kernel-gradient scheme conserves `Σ_p V⁰_p α_p`, the
 //! volume of the second fluid (and with it the mass `Σ_p V⁰_p ρ₀(α_p)`).
 
-use crate::blocks::{Blocks, Sums};
+use crate::blocks::{Blocks, GridRef, Sums};
 use crate::multigrid::{DiffusionScheme, Mixing};
-use mpm_core::{GridSpec, Kernel, Particles, Real, Stencil, Vector};
+use mpm_core::{Particles, Real, Stencil, Vector};
 use rayon::prelude::*;
 
 /// Scratch memory of the diffusion stage.
@@ -38,10 +38,14 @@ impl<const D: usize> MixingWork<D> {
 }
 
 /// One explicit diffusion step of `dt` (s) for the mixing particles binned in `blocks`; the new
-/// concentrations go to `work.alpha`, the particles are not modified.
+/// concentrations go to `work.alpha`, the particles are not modified. Node arrays are in the
+/// order of the grid's layout.
 pub(crate) fn diffuse<const D: usize>(
-    spec: &GridSpec<D>,
-    kernel: Kernel,
+    GridRef {
+        spec,
+        layout,
+        kernel,
+    }: GridRef<'_, D>,
     mixing: &Mixing,
     particles: &Particles<D>,
     blocks: &mut Blocks<D>,
@@ -66,7 +70,7 @@ pub(crate) fn diffuse<const D: usize>(
         momentum0: mls.then_some(spread),
         extra: Some(amount),
     };
-    blocks.scatter(sums, |p, window, (vol, mom, spr, amt)| {
+    blocks.scatter(layout, sums, |p, window, (vol, mom, spr, amt)| {
         if !mixes(p) {
             return;
         }
@@ -118,7 +122,7 @@ pub(crate) fn diffuse<const D: usize>(
                     let xp = particles.x[p];
                     let mut lap = 0.0;
                     Stencil::new(kernel, spec, &xp).for_each(|node, w, _| {
-                        if let Some(i) = spec.linear_index(&node) {
+                        if let Some(i) = layout.index(&node) {
                             lap += minv * w * grad_node[i].dot(&(spec.node_position(&node) - xp));
                         }
                     });
@@ -134,7 +138,7 @@ pub(crate) fn diffuse<const D: usize>(
                     let mut g = Vector::<D>::zeros();
                     if mixes(p) {
                         Stencil::new(kernel, spec, &particles.x[p]).for_each(|node, _, grad| {
-                            if let Some(i) = spec.linear_index(&node) {
+                            if let Some(i) = layout.index(&node) {
                                 g += grad * c[i];
                             }
                         });
@@ -150,7 +154,7 @@ pub(crate) fn diffuse<const D: usize>(
                 momentum0: None,
                 extra: Some(amount),
             };
-            blocks.scatter(sums, |p, window, (vol, _, _, rate)| {
+            blocks.scatter(layout, sums, |p, window, (vol, _, _, rate)| {
                 if !mixes(p) {
                     return;
                 }
@@ -170,7 +174,7 @@ pub(crate) fn diffuse<const D: usize>(
                     }
                     let mut d = 0.0;
                     Stencil::new(kernel, spec, &particles.x[p]).for_each(|node, w, _| {
-                        if let Some(i) = spec.linear_index(&node).filter(|&i| volume[i] > 0.0) {
+                        if let Some(i) = layout.index(&node).filter(|&i| volume[i] > 0.0) {
                             d += w * rate[i] / volume[i];
                         }
                     });

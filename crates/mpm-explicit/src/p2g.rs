@@ -5,8 +5,8 @@ use crate::blocks::{Blocks, Sums};
 use crate::materials::MaterialView;
 use crate::params::{BodyForce, Transfer};
 use mpm_core::{
-    AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Material, Matrix, Particles, Real,
-    Stencil, Vector,
+    AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Material, Matrix, NodeLayout, Particles,
+    Real, Stencil, Vector,
 };
 
 /// Kirchhoff stress τ = J σ (Pa) of particle `p` with material table entry `materials[..]`.
@@ -54,6 +54,8 @@ pub(crate) fn mls_gradient<const D: usize>(
 /// What P2G reads besides the particles' binning and the grid.
 pub(crate) struct P2gInputs<'a, const D: usize> {
     pub spec: &'a GridSpec<D>,
+    /// The sparse grid's stored nodes.
+    pub layout: &'a NodeLayout<D>,
     pub kernel: Kernel,
     pub transfer: Transfer,
     pub particles: &'a Particles<D>,
@@ -116,7 +118,7 @@ where
     ) {
         // The grid update overwrites every velocity; only the length matters here.
         grid.velocity
-            .resize(self.spec.num_nodes(), Vector::<D>::zeros());
+            .resize(self.layout.len(), Vector::<D>::zeros());
         let out = Sums {
             mass: &mut grid.mass,
             momentum: Some(&mut grid.momentum),
@@ -136,32 +138,36 @@ where
     /// nodes are consecutive in the block buffer.
     fn p2g_rows<const S: usize>(&self, blocks: &mut Blocks<D>, out: Sums<'_, D>, minv: Real) {
         let with0 = out.momentum0.is_some();
-        blocks.scatter(out, |p, window, (mass, momentum, momentum0, _)| {
-            let im = self.impulse(p);
-            let q = im.affine + im.stress * minv;
-            let st = AxisStencil::<D, S>::new(self.kernel, self.spec, &self.particles.x[p]);
-            st.for_each_row(|o, wr, dr| {
-                let mut node = st.base;
-                for a in 1..D {
-                    node[a] += o[a] as i64;
-                }
-                let k0 = window.local(&node);
-                let row = im.mv_forced + q * dr;
-                let (mass, momentum) = (&mut mass[k0..k0 + S], &mut momentum[k0..k0 + S]);
-                for i in 0..S {
-                    let (w, d0) = (st.w[0][i] * wr, st.d[0][i]);
-                    mass[i] += w * im.m;
-                    momentum[i] += (row + q.column(0) * d0) * w;
-                }
-                if with0 {
-                    let row0 = im.mv + im.affine * dr;
+        blocks.scatter(
+            self.layout,
+            out,
+            |p, window, (mass, momentum, momentum0, _)| {
+                let im = self.impulse(p);
+                let q = im.affine + im.stress * minv;
+                let st = AxisStencil::<D, S>::new(self.kernel, self.spec, &self.particles.x[p]);
+                st.for_each_row(|o, wr, dr| {
+                    let mut node = st.base;
+                    for a in 1..D {
+                        node[a] += o[a] as i64;
+                    }
+                    let k0 = window.local(&node);
+                    let row = im.mv_forced + q * dr;
+                    let (mass, momentum) = (&mut mass[k0..k0 + S], &mut momentum[k0..k0 + S]);
                     for i in 0..S {
                         let (w, d0) = (st.w[0][i] * wr, st.d[0][i]);
-                        momentum0[k0 + i] += (row0 + im.affine.column(0) * d0) * w;
+                        mass[i] += w * im.m;
+                        momentum[i] += (row + q.column(0) * d0) * w;
                     }
-                }
-            });
-        });
+                    if with0 {
+                        let row0 = im.mv + im.affine * dr;
+                        for i in 0..S {
+                            let (w, d0) = (st.w[0][i] * wr, st.d[0][i]);
+                            momentum0[k0 + i] += (row0 + im.affine.column(0) * d0) * w;
+                        }
+                    }
+                });
+            },
+        );
     }
 
     /// P2G over the general stencil: the linear kernel, whose MLS gradient is the kernel
@@ -170,26 +176,31 @@ where
         let (spec, kernel) = (self.spec, self.kernel);
         let minv = kernel.mls_inertia_inv(spec.dx);
         let with0 = out.momentum0.is_some();
-        blocks.scatter(out, |p, window, (mass, momentum, momentum0, _)| {
-            let im = self.impulse(p);
-            let xp = self.particles.x[p];
-            Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
-                let d = spec.node_position(&node) - xp;
-                let g = mls_gradient(minv, w, &grad, &d);
-                let k = window.local(&node);
-                mass[k] += w * im.m;
-                momentum[k] += (im.mv_forced + im.affine * d) * w + im.stress * g;
-                if with0 {
-                    momentum0[k] += (im.mv + im.affine * d) * w;
-                }
-            });
-        });
+        blocks.scatter(
+            self.layout,
+            out,
+            |p, window, (mass, momentum, momentum0, _)| {
+                let im = self.impulse(p);
+                let xp = self.particles.x[p];
+                Stencil::new(kernel, spec, &xp).for_each(|node, w, grad| {
+                    let d = spec.node_position(&node) - xp;
+                    let g = mls_gradient(minv, w, &grad, &d);
+                    let k = window.local(&node);
+                    mass[k] += w * im.m;
+                    momentum[k] += (im.mv_forced + im.affine * d) * w + im.stress * g;
+                    if with0 {
+                        momentum0[k] += (im.mv + im.affine * d) * w;
+                    }
+                });
+            },
+        );
     }
 }
 
 /// Scatters particle masses only (for volume re-estimation).
 pub(crate) fn p2g_mass<const D: usize>(
     spec: &GridSpec<D>,
+    layout: &NodeLayout<D>,
     kernel: Kernel,
     particles: &Particles<D>,
     blocks: &mut Blocks<D>,
@@ -201,7 +212,7 @@ pub(crate) fn p2g_mass<const D: usize>(
         momentum0: None,
         extra: None,
     };
-    blocks.scatter(out, |p, window, (mass, ..)| {
+    blocks.scatter(layout, out, |p, window, (mass, ..)| {
         let m = particles.mass[p];
         Stencil::new(kernel, spec, &particles.x[p]).for_each(|node, w, _| {
             mass[window.local(&node)] += w * m;

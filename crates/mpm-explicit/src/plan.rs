@@ -24,7 +24,14 @@ where
         Stage::TimeStep,
         p.time_step.describe("dx / max(|v| + c), viscous limit"),
     );
-    plan.push(Stage::Sort, "bin particles into grid blocks");
+    let b = mpm_core::NodeLayout::<D>::BLOCK;
+    plan.push(
+        Stage::Sort,
+        format!(
+            "bin particles into grid blocks; sparse grid: only the {b}^{D}-node blocks the \
+             particles reach are stored"
+        ),
+    );
     if p.volume == VolumeUpdate::Reestimate {
         let fluids = solver
             .materials()

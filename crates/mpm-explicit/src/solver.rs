@@ -1,6 +1,6 @@
 //! The explicit MLS-MPM solver on one background grid.
 
-use crate::blocks::Blocks;
+use crate::blocks::{Blocks, GridRef};
 use crate::coupling::{self, GeometryNeeds, PhaseGeometry};
 use crate::g2p::{self, Extra, ExtraContext, G2pContext, Moving};
 use crate::grid_update::{self, NodeForces};
@@ -17,8 +17,9 @@ use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::volume::density_at;
 use mpm_core::{
     columns, retry_halving, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec, Instability,
-    Location, Material, OnInstability, Particles, Real, SetupError, Solver, SolverState, Stage,
-    StagePlan, StageTimes, StepError, StepInfo, StepStart, TimeStepPolicy, Vector, Violation,
+    Location, Material, NodeLayout, OnInstability, Particles, Real, SetupError, Solver,
+    SolverState, Stage, StagePlan, StageTimes, StepError, StepInfo, StepStart, TimeStepPolicy,
+    Vector, Violation,
 };
 use rayon::prelude::*;
 use std::convert::Infallible;
@@ -38,6 +39,9 @@ pub struct ScratchBytes {
 /// Scratch memory reused by every step. The per-phase vectors have one entry per phase.
 #[derive(Clone, Debug, Default)]
 struct Workspace<const D: usize> {
+    /// The sparse grid: the node blocks every phase's particles reach this step, shared by the
+    /// phase grids so that they couple node by node.
+    layout: NodeLayout<D>,
     blocks: Vec<Blocks<D>>,
     grids: Vec<GridNodes<D>>,
     velocity_old: Vec<Vec<Vector<D>>>,
@@ -337,14 +341,22 @@ where
     }
 
     /// Stage: bins each phase's particles into grid blocks for the deterministic parallel
-    /// scatter.
+    /// scatter, and lays out the sparse grid: the blocks the phases reach, and with mirrored
+    /// walls the blocks of their ghosts' mirrors.
     fn sort_particles(&mut self) {
         let t = Instant::now();
         let phase = self.particles.phase.as_deref();
-        for (k, blocks) in self.ws.blocks.iter_mut().enumerate() {
+        let ws = &mut self.ws;
+        ws.layout.begin(&self.spec);
+        for (k, blocks) in ws.blocks.iter_mut().enumerate() {
             let only = phase.map(|ph| (ph, k as u32));
             blocks.sort(&self.spec, self.params.kernel, &self.particles.x, only);
+            blocks.mark(&mut ws.layout);
         }
+        if let Some(m) = &self.mirror {
+            m.mark(&mut ws.layout);
+        }
+        ws.layout.finish();
         self.stats.add(Stage::Sort, t.elapsed());
     }
 
@@ -352,10 +364,11 @@ where
     fn reestimate_volumes(&mut self) {
         let t = Instant::now();
         let (spec, kernel) = (&self.spec, self.params.kernel);
+        let layout = &self.ws.layout;
         for (blocks, grid) in self.ws.blocks.iter_mut().zip(self.ws.grids.iter_mut()) {
-            p2g::p2g_mass(spec, kernel, &self.particles, blocks, grid);
+            p2g::p2g_mass(spec, layout, kernel, &self.particles, blocks, grid);
             if let Some(m) = &self.mirror {
-                m.mirror_mass(&mut grid.mass);
+                m.mirror_mass(layout, &mut grid.mass);
             }
         }
         let Particles {
@@ -373,7 +386,8 @@ where
             jac.par_iter_mut().enumerate().for_each(|(p, j)| {
                 if matches!(materials[material[p] as usize], Material::Fluid(_)) {
                     let grid_mass = &grids[phase.map_or(0, |k| k[p] as usize)].mass;
-                    *j = mass[p] / (density_at(spec, kernel, grid_mass, &x[p]) * volume0[p]);
+                    *j =
+                        mass[p] / (density_at(spec, kernel, layout, grid_mass, &x[p]) * volume0[p]);
                 }
             });
         }
@@ -388,9 +402,13 @@ where
         };
         let t = Instant::now();
         let phase = self.mixing_phase();
+        let grid = GridRef {
+            spec: &self.spec,
+            layout: &self.ws.layout,
+            kernel: self.params.kernel,
+        };
         mixing::diffuse(
-            &self.spec,
-            self.params.kernel,
+            grid,
             mix,
             &self.particles,
             &mut self.ws.blocks[phase],
@@ -420,8 +438,16 @@ where
         let t = Instant::now();
         let with0 = self.needs_momentum0();
         let view = material_view(&self.materials, &self.params);
+        let Workspace {
+            layout,
+            blocks,
+            grids,
+            velocity_old,
+            ..
+        } = &mut self.ws;
         let inputs = p2g::P2gInputs {
             spec: &self.spec,
+            layout,
             kernel: self.params.kernel,
             transfer: self.params.transfer,
             particles: &self.particles,
@@ -429,12 +455,10 @@ where
             body_force: self.params.body_force.as_ref(),
             step: (self.time, dt),
         };
-        let ws = &mut self.ws;
-        for ((blocks, grid), v0) in ws
-            .blocks
+        for ((blocks, grid), v0) in blocks
             .iter_mut()
-            .zip(ws.grids.iter_mut())
-            .zip(ws.velocity_old.iter_mut())
+            .zip(grids.iter_mut())
+            .zip(velocity_old.iter_mut())
         {
             inputs.p2g(blocks, grid, with0.then_some(v0));
         }
@@ -461,6 +485,7 @@ where
         };
         let boundaries = (!self.multigrid()).then_some(&self.boundaries);
         let mut r = Ok(());
+        let layout = &self.ws.layout;
         for (grid, v0) in self
             .ws
             .grids
@@ -468,10 +493,15 @@ where
             .zip(self.ws.velocity_old.iter_mut())
         {
             if let Some(m) = &self.mirror {
-                fold_ghosts(m, grid, with0.then_some(v0), forces.gravity * dt);
+                fold_ghosts(m, layout, grid, with0.then_some(v0), forces.gravity * dt);
             }
+            let at = GridRef {
+                spec: &self.spec,
+                layout,
+                kernel: self.params.kernel,
+            };
             r = r.and(grid_update::update(
-                &self.spec,
+                at,
                 grid,
                 with0.then_some(v0),
                 boundaries,
@@ -480,7 +510,7 @@ where
                 dt,
             ));
             if let (Some(m), Some(_)) = (&self.mirror, boundaries) {
-                fill_ghosts(m, grid, with0.then_some(v0));
+                fill_ghosts(m, layout, grid, with0.then_some(v0));
             }
         }
         self.stats.add(Stage::GridUpdate, t.elapsed());
@@ -498,8 +528,11 @@ where
         for (k, needs) in self.geometry_needs.iter().enumerate() {
             if needs.geometry {
                 coupling::scatter_geometry(
-                    &self.spec,
-                    self.params.kernel,
+                    GridRef {
+                        spec: &self.spec,
+                        layout: &ws.layout,
+                        kernel: self.params.kernel,
+                    },
                     &self.particles,
                     &view,
                     &mut ws.blocks[k],
@@ -515,12 +548,13 @@ where
         for (grid, v0) in ws.grids.iter_mut().zip(ws.velocity_old.iter_mut()) {
             r = r.and(grid_update::apply_boundaries(
                 &self.spec,
+                &ws.layout,
                 grid,
                 &self.boundaries,
                 self.time,
             ));
             if let Some(m) = &self.mirror {
-                fill_ghosts(m, grid, with0.then_some(v0));
+                fill_ghosts(m, &ws.layout, grid, with0.then_some(v0));
             }
         }
         self.stats.add(Stage::Coupling, t.elapsed());
@@ -533,8 +567,13 @@ where
     fn grid_to_particle(&mut self, dt: Real) -> Result<Real, (Location, Violation, Real)> {
         let t = Instant::now();
         let flip = matches!(self.params.transfer, Transfer::Flip { .. });
+        let ws = &mut self.ws;
+        for ((blocks, grid), v0) in ws.blocks.iter_mut().zip(&ws.grids).zip(&ws.velocity_old) {
+            blocks.load_velocities(&ws.layout, &grid.velocity, flip.then_some(v0.as_slice()));
+        }
         let ctx = G2pContext {
             spec: &self.spec,
+            layout: &self.ws.layout,
             kernel: self.params.kernel,
             transfer: self.params.transfer,
             materials: material_view(&self.materials, &self.params),
@@ -559,6 +598,7 @@ where
         }
         let r = ctx.advance(
             &mut self.particles,
+            &self.ws.blocks,
             &self.ws.grids,
             flip.then_some(self.ws.velocity_old.as_slice()),
             dt,
@@ -654,7 +694,7 @@ where
         let vec = std::mem::size_of::<Vector<D>>();
         let mut bytes = ScratchBytes {
             particles: ws.backup.bytes() + ws.extras.len() * std::mem::size_of::<Extra>(),
-            grid: ws.mixing.bytes(),
+            grid: ws.mixing.bytes() + ws.layout.bytes(),
         };
         for k in 0..self.phase_count() {
             let (block_particles, block_grid) = ws.blocks[k].bytes();
@@ -668,14 +708,22 @@ where
         bytes
     }
 
-    /// Grid node data of phase 0 after the last P2G and grid update.
+    /// Grid node data of phase 0 after the last P2G and grid update, in the order of
+    /// [`Self::grid_layout`].
     pub fn grid(&self) -> &GridNodes<D> {
         &self.ws.grids[0]
     }
 
-    /// Grid node data of phase `k` after the last P2G, grid update and coupling.
+    /// Grid node data of phase `k` after the last P2G, grid update and coupling, in the order
+    /// of [`Self::grid_layout`].
     pub fn phase_grid(&self, k: usize) -> Option<&GridNodes<D>> {
         self.ws.grids.get(k)
+    }
+
+    /// The sparse grid of the last step: which node blocks are stored (the blocks the
+    /// particles' stencils reach) and where each node is in the arrays of [`Self::grid`].
+    pub fn grid_layout(&self) -> &NodeLayout<D> {
+        &self.ws.layout
     }
 
     /// Mass, momenta and energies of the particles. Angular momentum includes the affine spin
@@ -795,6 +843,7 @@ where
 /// into their mirror nodes after P2G; `gravity_impulse` is `Δt g` (m/s).
 fn fold_ghosts<const D: usize>(
     mirror: &MirrorWalls<D>,
+    layout: &NodeLayout<D>,
     grid: &mut GridNodes<D>,
     momentum0: Option<&mut Vec<Vector<D>>>,
     gravity_impulse: Vector<D>,
@@ -803,19 +852,20 @@ fn fold_ghosts<const D: usize>(
     if let Some(p0) = momentum0 {
         channels.push((p0.as_mut_slice(), None));
     }
-    mirror.fold(&mut grid.mass, &mut channels);
+    mirror.fold(layout, &mut grid.mass, &mut channels);
 }
 
 /// Gives the ghost nodes of `grid` (and the pre-update velocities `velocity0`) the reflected
 /// velocities of their mirror nodes after the boundaries.
 fn fill_ghosts<const D: usize>(
     mirror: &MirrorWalls<D>,
+    layout: &NodeLayout<D>,
     grid: &mut GridNodes<D>,
     velocity0: Option<&mut Vec<Vector<D>>>,
 ) {
-    mirror.fill(&mut grid.velocity);
+    mirror.fill(layout, &mut grid.velocity);
     if let Some(v0) = velocity0 {
-        mirror.fill(v0);
+        mirror.fill(layout, v0);
     }
 }
 

@@ -4,7 +4,7 @@
 mod common;
 
 use common::{fill_box, jelly, water, with_threads};
-use mpm_core::boundary::Boundaries;
+use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
 use mpm_core::material::{FluidMaterial, Interaction, Parameter, Scaling, Tait};
 use mpm_core::{
     Columns, Dim, DimOps, GridSpec, Kernel, Material, Matrix, Particles, Real, Solver, Stage,
@@ -681,4 +681,87 @@ fn multigrid_steps_are_bitwise_equal_for_any_thread_count() {
     };
     assert_eq!(a.material, b.material);
     assert!(bits(&a) == bits(&b), "1 and 4 threads differ");
+}
+
+/// The two-phase jelly-and-water scene with a contact coupling, buoyancy and a sphere collider
+/// under the water, without domain walls, on a grid of `nodes` nodes per axis from the origin
+/// with Δx = 1/40 m.
+fn sparse_scene(nodes: usize) -> ExplicitSolver<2> {
+    let (spec, materials, particles) = jelly_and_water(true, -9.81);
+    let spec = GridSpec::new(spec.origin, spec.dx, [nodes; 2]);
+    let mut c = coupling(CouplingKind::Contact(ContactCoupling {
+        normal_share: 1.0,
+        friction: Friction::Coulomb(0.3),
+        activation: Activation::OnApproach,
+    }));
+    c.buoyancy = Some(BuoyancyPenalty { strength: 1.0 });
+    let phases = Phases {
+        count: 2,
+        couplings: vec![c],
+    };
+    let boundaries = Boundaries {
+        walls: None,
+        colliders: vec![Collider {
+            shape: ColliderShape::Sphere {
+                center: Vector::<2>::new(0.5, 0.0),
+                radius: 0.09,
+            },
+            contact: Contact {
+                kind: ContactKind::Slip,
+                friction: 0.0,
+            },
+            velocity: Vector::<2>::zeros(),
+        }],
+    };
+    solver((spec, materials, particles), phases, boundaries, -9.81)
+}
+
+#[test]
+fn a_larger_domain_stores_the_same_blocks_and_gives_the_same_bits() {
+    // 2 m and 16 m wide domains (81 and 641 nodes per axis; the material lies in the first
+    // metre): the dense grid of the large one would be 63 times larger.
+    let mut small = sparse_scene(81);
+    let mut large = sparse_scene(641);
+    for _ in 0..60 {
+        small.step().unwrap();
+        large.step().unwrap();
+    }
+    let (a, b) = (small.particles(), large.particles());
+    for p in 0..a.len() {
+        assert_eq!(a.x[p], b.x[p], "particle {p}");
+        assert_eq!(a.v[p], b.v[p], "particle {p}");
+    }
+    // The collider acted: the bottom water above the sphere (top at y = 0.09 m, one node
+    // row of the water's stencils inside it) is slowed while the bottom water beside it, with
+    // no wall below, falls freely (v = −g t).
+    let free = -9.81 * small.time();
+    let phase = a.phase.as_ref().unwrap();
+    let mean_vy = |column: &dyn Fn(Real) -> bool| {
+        let v: Vec<Real> = (0..a.len())
+            .filter(|&p| phase[p] == 1 && a.x[p].y < 0.12 && column(a.x[p].x))
+            .map(|p| a.v[p].y)
+            .collect();
+        assert!(!v.is_empty());
+        v.iter().sum::<Real>() / v.len() as Real
+    };
+    let held = mean_vy(&|x| (x - 0.5).abs() < 0.02);
+    let falling = mean_vy(&|x| x < 0.2);
+    assert!(
+        held > 0.9 * free,
+        "above the sphere: {held} m/s, free fall {free} m/s"
+    );
+    assert!(
+        falling < 0.98 * free,
+        "beside it: {falling} m/s, free fall {free} m/s"
+    );
+    // Storage follows the material, not the domain: the same blocks, the same node count.
+    let (ls, ll) = (small.grid_layout(), large.grid_layout());
+    assert_eq!(ls.len(), ll.len());
+    assert!(ll.len() * 100 < large.spec().num_nodes());
+    let (gs, gl) = (small.phase_grid(1).unwrap(), large.phase_grid(1).unwrap());
+    for i in 0..ls.len() {
+        let k = ll.index(&ls.node(i)).unwrap();
+        assert_eq!(gs.mass[i].to_bits(), gl.mass[k].to_bits());
+        assert_eq!(gs.velocity[i], gl.velocity[k]);
+    }
 }
