@@ -132,7 +132,8 @@ fn bench_step_on<const D: usize>(
 }
 
 /// Runs `bench` for every scene of [`scenes`], building each solver fresh; with `sparse`, also
-/// on the 256k cube in the [`SPARSE_DOMAIN_CELLS`]³ domain (`domain512_3d_256k`; the name keeps `step/3d_256k` from matching it).
+/// on the 256k cube in the [`SPARSE_DOMAIN_CELLS`]³ domain (`domain512_3d_256k`; the name
+/// keeps the filter `step/3d_256k` from matching it).
 fn for_each_scene(
     c: &mut Criterion,
     group_name: &str,
