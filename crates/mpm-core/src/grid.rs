@@ -110,6 +110,8 @@ pub struct NodeLayout<const D: usize> {
     /// The active block ids: ascending after [`Self::finish`] (slot `s` holds block
     /// `active[s]`), in marking order before.
     active: Vec<u32>,
+    /// First node of the block in each slot, set by [`Self::finish`].
+    origins: Vec<[i64; D]>,
 }
 
 impl<const D: usize> Default for NodeLayout<D> {
@@ -119,6 +121,7 @@ impl<const D: usize> Default for NodeLayout<D> {
             dims: [0; D],
             slot: Vec::new(),
             active: Vec::new(),
+            origins: Vec::new(),
         }
     }
 }
@@ -186,8 +189,12 @@ impl<const D: usize> NodeLayout<D> {
     /// Ends the marking: the marked blocks get storage slots in ascending block id.
     pub fn finish(&mut self) {
         self.active.sort_unstable();
+        self.origins.clear();
         for (s, &id) in self.active.iter().enumerate() {
             self.slot[id as usize] = s as u32;
+            let c = self.block_coords(id as usize);
+            self.origins
+                .push(std::array::from_fn(|a| c[a] * Self::BLOCK as i64));
         }
     }
 
@@ -231,11 +238,10 @@ impl<const D: usize> NodeLayout<D> {
         self.active.is_empty()
     }
 
-    /// First node (multi-index) of the block in storage slot `slot`.
+    /// First node (multi-index) of the block in storage slot `slot` (after [`Self::finish`]).
     #[inline]
     pub fn slot_origin(&self, slot: usize) -> [i64; D] {
-        let c = self.block_coords(self.active[slot] as usize);
-        std::array::from_fn(|a| c[a] * Self::BLOCK as i64)
+        self.origins[slot]
     }
 
     /// Storage index of the grid node `node`, or `None` when it lies outside the grid or in an
@@ -273,6 +279,7 @@ impl<const D: usize> NodeLayout<D> {
     /// Bytes held (lengths, not capacities).
     pub fn bytes(&self) -> usize {
         (self.slot.len() + self.active.len()) * std::mem::size_of::<u32>()
+            + self.origins.len() * std::mem::size_of::<[i64; D]>()
     }
 }
 

@@ -342,6 +342,8 @@ pub struct Blocks<const D: usize> {
     order: Vec<u32>,
     /// Non-empty blocks: (block id, start, end) ranges into `order`, ascending in block id.
     ranges: Vec<(usize, usize, usize)>,
+    /// First node of each non-empty block (the origin of its window), in the order of `ranges`.
+    origins: Vec<[i64; D]>,
 }
 
 impl<const D: usize> Default for Blocks<D> {
@@ -353,6 +355,7 @@ impl<const D: usize> Default for Blocks<D> {
             counts: Vec::new(),
             order: Vec::new(),
             ranges: Vec::new(),
+            origins: Vec::new(),
         }
     }
 }
@@ -429,6 +432,12 @@ impl<const D: usize> Blocks<D> {
                 self.range_of[p as usize] = r as u32;
             }
         }
+        self.origins.clear();
+        self.origins.extend(
+            self.ranges
+                .iter()
+                .map(|r| block_origin(r.0, &dims, b as i64)),
+        );
     }
 
     /// The binned particles sorted by block, in index order within a block.
@@ -446,7 +455,9 @@ impl<const D: usize> Blocks<D> {
     pub fn bytes(&self) -> (usize, usize) {
         let u = std::mem::size_of::<usize>();
         let per_particle = (self.range_of.len() + self.order.len()) * std::mem::size_of::<u32>();
-        let grid = self.counts.len() * u + self.ranges.len() * 3 * u;
+        let grid = self.counts.len() * u
+            + self.ranges.len() * 3 * u
+            + self.origins.len() * std::mem::size_of::<[i64; D]>();
         (per_particle, grid)
     }
 
@@ -458,7 +469,7 @@ impl<const D: usize> Blocks<D> {
     /// The window of the `r`-th non-empty block (the order of [`Self::block_count`]).
     fn window(&self, r: usize, width: usize) -> BlockWindow<D> {
         BlockWindow {
-            origin: block_origin(self.ranges[r].0, &self.dims, Self::BLOCK_CELLS as i64),
+            origin: self.origins[r],
             width,
         }
     }
