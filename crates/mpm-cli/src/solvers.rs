@@ -25,6 +25,8 @@ pub(crate) struct Owned {
     pub keys: &'static [&'static str],
     /// The output fields only it computes ([`SolverTables::FIELDS`]).
     pub fields: &'static [&'static str],
+    /// Whether its grid is sparse ([`SolverTables::SPARSE_GRID`]).
+    pub sparse_grid: bool,
 }
 
 impl Owned {
@@ -32,6 +34,11 @@ impl Owned {
     pub fn reads(&self, pattern: &str) -> bool {
         self.tables.contains(&pattern) || self.keys.contains(&pattern)
     }
+}
+
+/// Whether solver `kind` stores only the grid blocks material reaches.
+pub fn sparse_grid(kind: SolverKind) -> bool {
+    OWNED.iter().any(|o| o.kind == kind && o.sparse_grid)
 }
 
 /// Whether solver `kind` can run a scene (it is not only a reserved name).
@@ -95,6 +102,7 @@ macro_rules! solvers {
             tables: <crate::scene::$module::$part as SolverTables>::TABLES,
             keys: <crate::scene::$module::$part as SolverTables>::KEYS,
             fields: <crate::scene::$module::$part as SolverTables>::FIELDS,
+            sparse_grid: <crate::scene::$module::$part as SolverTables>::SPARSE_GRID,
         },)+];
 
         impl SolverScene {

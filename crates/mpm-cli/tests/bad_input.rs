@@ -845,11 +845,27 @@ fn limits_are_printed_exactly() {
     let side = 0.3f64 - 0.1;
     assert_eq!(about, (side * side / 4.99e-5f64.powi(2)).ceil() as u64);
     assert_eq!(about, 16_064_193);
-    let t = WATER_2D.replace("dx = 0.03125", "dx = 0.0000625");
+    // A dense grid (the DIQ fluid) is limited by its nodes.
+    let t = DIQ_2D.replace("dx = 0.03125", "dx = 0.0000625");
     expect_bad(&d, "nodes.toml", &t, "check", "grid.dx", Some("dx ="));
     let err = stderr(&cli(&["check", &d.join("nodes.toml").to_string_lossy()]));
     assert!(
         err.contains("the grid would have 64,016,001 nodes (limit 64,000,000)"),
+        "{err}"
+    );
+    // The explicit solver's sparse grid is limited by the domain's 16² blocks: 92 M nodes
+    // (9,601², 601² blocks) are fine, 128,001² nodes (8,001² blocks) are not.
+    let t = WATER_2D.replace("max = [0.5, 0.5]", "max = [300.0, 300.0]");
+    let out = cli(&["check", &write(&d, "sparse_ok.toml", &t).to_string_lossy()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let t = WATER_2D.replace(
+        "max = [0.5, 0.5]\ndx = 0.03125",
+        "max = [1000.0, 1000.0]\ndx = 0.0078125",
+    );
+    expect_bad(&d, "blocks.toml", &t, "check", "grid.dx", Some("dx ="));
+    let err = stderr(&cli(&["check", &d.join("blocks.toml").to_string_lossy()]));
+    assert!(
+        err.contains("the grid would have 64,016,001 blocks of 16² nodes (limit 64,000,000)"),
         "{err}"
     );
 }

@@ -5,7 +5,7 @@
 //! `[[bodies]]`.
 
 use super::bodies::{phase_count, BodyDef, RawBody};
-use super::grid::{Grid, MAX_GRID_NODES};
+use super::grid::{block_nodes, Grid, MAX_GRID_BLOCKS};
 use super::multigrid::{
     resolve_couplings, resolve_dissolution, resolve_mixing, resolve_porous, CouplingDef,
     DissolutionDef, MixingDef, PorousDef, RawCoupling, RawDissolution, RawMixing, RawPorous,
@@ -46,6 +46,7 @@ pub(crate) struct RawExplicit {
 
 impl SolverTables for ExplicitScene {
     const TABLES: &'static [&'static str] = &["couplings", "porous", "mixing", "dissolution"];
+    const SPARSE_GRID: bool = true;
     const KEYS: &'static [&'static str] = &[
         "simulation.volume_update",
         "simulation.initial_volume",
@@ -147,21 +148,23 @@ fn check_phases(c: &mut Checker<'_>, bodies: &[BodyDef], phases: u32, grid: &Gri
         }
     }
     if phases > 1 && grid.min.len() == grid.max.len() && grid.dx > 0.0 {
-        let nodes: f64 = grid
+        // Each phase bins its particles by the domain's blocks.
+        let b = block_nodes(grid.min.len()) as f64;
+        let blocks: f64 = grid
             .min
             .iter()
             .zip(&grid.max)
-            .map(|(lo, hi)| ((hi - lo) / grid.dx).abs().ceil() + 1.0)
+            .map(|(lo, hi)| ((((hi - lo) / grid.dx).abs().ceil() + 1.0) / b).ceil())
             .product();
-        let total = nodes * phases as f64;
-        if total > MAX_GRID_NODES {
+        let total = blocks * phases as f64;
+        if total > MAX_GRID_BLOCKS {
             c.err(
                 "grid.dx",
                 format!(
-                    "{phases} phase grids would have {} nodes in all (limit {}): increase dx \
-                     or shrink the domain",
+                    "{phases} phase grids would have {} node blocks in all (limit {}): \
+                     increase dx or shrink the domain",
                     count_text(total),
-                    count_text(MAX_GRID_NODES)
+                    count_text(MAX_GRID_BLOCKS)
                 ),
             );
         }

@@ -48,7 +48,7 @@ pub use bodies::{
 pub use boundaries::{BoundaryDef, BoundaryGeometry, BoundaryKind};
 pub use diq::{DiqDef, DiqScene};
 pub use explicit::ExplicitScene;
-pub use grid::{Grid, MAX_GRID_NODES};
+pub use grid::{Grid, MAX_GRID_BLOCKS, MAX_GRID_NODES};
 pub use materials::{
     FluidDef, MaterialDef, ModelDef, ModelKind, PlasticityDef, PlasticityKind, Preset, SolidDef,
 };
@@ -172,6 +172,9 @@ pub(crate) trait SolverTables: Sized {
     fn columns(&self, materials: Columns, bodies: &[BodyDef]) -> Columns;
     /// Output fields only this solver computes (beyond the particle columns and `pressure`).
     const FIELDS: &'static [&'static str] = &[];
+    /// Whether the solver's grid stores only the node blocks material reaches (so `[grid]` is
+    /// limited by the domain's blocks, not its nodes).
+    const SPARSE_GRID: bool = false;
 }
 
 /// The resolved common tables, as a solver's scene module sees them.
@@ -469,7 +472,8 @@ fn resolve(
 ) -> Option<Scene> {
     let sim = simulation::resolve_simulation(c, &raw.simulation)?;
     let d = sim.dim;
-    let grid = grid::resolve_grid(c, &raw.grid, d);
+    let sparse = crate::solvers::sparse_grid(sim.solver);
+    let grid = grid::resolve_grid(c, &raw.grid, d, sparse);
     let materials = materials::resolve_materials(c, &raw.materials, d);
     let base = path.parent().unwrap_or(Path::new("."));
     let mut bodies = bodies::resolve_bodies(c, &raw.bodies, d, &materials, base);
