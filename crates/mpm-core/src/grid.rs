@@ -165,16 +165,9 @@ impl<const D: usize> NodeLayout<D> {
     /// (negative or past the last block) are ignored.
     #[inline]
     pub fn mark(&mut self, coords: [i64; D]) {
-        let mut id = 0usize;
-        let mut stride = 1usize;
-        for a in 0..D {
-            let c = coords[a];
-            if c < 0 || c as usize >= self.dims[a] {
-                return;
-            }
-            id += c as usize * stride;
-            stride *= self.dims[a];
-        }
+        let Some(id) = self.block_id(&coords) else {
+            return;
+        };
         if self.slot[id] == Self::INACTIVE {
             self.slot[id] = Self::MARKED;
             self.active.push(id as u32);
@@ -209,9 +202,10 @@ impl<const D: usize> NodeLayout<D> {
         c
     }
 
-    /// Storage slot of the block with coordinates `coords`, if it is active.
+    /// Id of the block with block coordinates `coords` (first axis fastest), or `None` beyond
+    /// the grid; the inverse of [`Self::block_coords`].
     #[inline]
-    pub fn slot_of(&self, coords: &[i64; D]) -> Option<usize> {
+    pub fn block_id(&self, coords: &[i64; D]) -> Option<usize> {
         let mut id = 0usize;
         let mut stride = 1usize;
         for a in 0..D {
@@ -222,7 +216,13 @@ impl<const D: usize> NodeLayout<D> {
             id += c as usize * stride;
             stride *= self.dims[a];
         }
-        match self.slot[id] {
+        Some(id)
+    }
+
+    /// Storage slot of the block with coordinates `coords`, if it is active.
+    #[inline]
+    pub fn slot_of(&self, coords: &[i64; D]) -> Option<usize> {
+        match self.slot[self.block_id(coords)?] {
             s if s < Self::MARKED => Some(s as usize),
             _ => None,
         }

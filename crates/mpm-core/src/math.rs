@@ -181,6 +181,34 @@ impl DimOps<3> for Dim<3> {
     }
 }
 
+/// Calls `f` for every multi-index in the box `lo[a] ≤ k[a] < lo[a] + count[a]`, first axis
+/// fastest.
+pub(crate) fn for_each_index<const D: usize>(
+    lo: &[i64; D],
+    count: &[usize; D],
+    mut f: impl FnMut(&[i64; D]),
+) {
+    if count.contains(&0) {
+        return;
+    }
+    let mut k = *lo;
+    loop {
+        f(&k);
+        let mut a = 0;
+        loop {
+            if a == D {
+                return;
+            }
+            k[a] += 1;
+            if ((k[a] - lo[a]) as usize) < count[a] {
+                break;
+            }
+            k[a] = lo[a];
+            a += 1;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,7 +4,7 @@
 //! Invalid input never panics: [`sample`] returns empty vectors for an invalid sampling or shape
 //! (see its documentation) and the caller reports a body without particles.
 
-use crate::math::{Real, Vector};
+use crate::math::{for_each_index, Real, Vector};
 use serde::{Deserialize, Serialize};
 
 /// SplitMix64: a tiny, fast, deterministic generator for sampling and jitter.
@@ -436,30 +436,6 @@ pub fn sample<const D: usize>(
         Sampling::PoissonDisk { radius, seed } => sample_poisson(shape, radius, seed),
     }
     .unwrap_or_default()
-}
-
-/// Calls `f` for every multi-index in the box `lo[a] ≤ k[a] < lo[a] + count[a]`, first axis
-/// fastest.
-fn for_each_index<const D: usize>(lo: &[i64; D], count: &[usize; D], mut f: impl FnMut(&[i64; D])) {
-    if count.contains(&0) {
-        return;
-    }
-    let mut k = *lo;
-    loop {
-        f(&k);
-        let mut a = 0;
-        loop {
-            if a == D {
-                return;
-            }
-            k[a] += 1;
-            if ((k[a] - lo[a]) as usize) < count[a] {
-                break;
-            }
-            k[a] = lo[a];
-            a += 1;
-        }
-    }
 }
 
 /// Regular (jittered) lattice sampling; `None` for invalid parameters.

@@ -51,7 +51,7 @@
 
 use crate::grid::{GridSpec, NodeLayout};
 use crate::kernel::Kernel;
-use crate::math::{Real, Vector};
+use crate::math::{for_each_index, Real, Vector};
 use nalgebra::SMatrix;
 use rayon::prelude::*;
 use std::ops::AddAssign;
@@ -484,12 +484,8 @@ impl<const D: usize> Blocks<D> {
     pub fn mark(&self, layout: &mut NodeLayout<D>) {
         assert!(self.grid.is_some(), "Blocks::sort before Blocks::mark");
         for &(id, _, _) in &self.ranges {
-            let mut c = [0i64; D];
-            let mut rest = id;
-            for a in 0..D {
-                c[a] = (rest % self.dims[a]) as i64;
-                rest /= self.dims[a];
-            }
+            // The binning's blocks are the layout's: the same grid and block size.
+            let c = layout.block_coords(id);
             for e in 0..1usize << D {
                 layout.mark(std::array::from_fn(|a| c[a] + ((e >> a) & 1) as i64));
             }
@@ -549,20 +545,10 @@ impl<const D: usize> Blocks<D> {
             let mut sources = [(0usize, 0usize, 0usize); 8];
             let mut count = 0;
             for e in 0..1usize << D {
-                let mut id = 0;
-                let mut stride = 1;
-                for a in 0..D {
-                    let c = grid_block[a] - ((e >> a) & 1) as i64;
-                    if c < 0 {
-                        id = usize::MAX;
-                        break;
-                    }
-                    id += c as usize * stride;
-                    stride *= self.dims[a];
-                }
-                if id == usize::MAX {
+                let below = std::array::from_fn(|a| grid_block[a] - ((e >> a) & 1) as i64);
+                let Some(id) = layout.block_id(&below) else {
                     continue;
-                }
+                };
                 if let Ok(r) = self.ranges.binary_search_by_key(&id, |r| r.0) {
                     sources[count] = (id, r, e);
                     count += 1;
@@ -661,28 +647,13 @@ impl<const D: usize> Blocks<D> {
 }
 
 /// Calls `f(row)` for every row of the box `0..ext[0] × … × 0..ext[D−1]` along the first axis:
-/// `row[0]` is 0 and `row[a]`, `a ≥ 1`, runs over `0..ext[a]`, last axis slowest.
+/// `row[0]` is 0 and `row[a]`, `a ≥ 1`, runs over `0..ext[a]` (rows are disjoint, so their
+/// order does not matter).
 #[inline]
 fn for_each_row<const D: usize>(ext: &[usize; D], mut f: impl FnMut(&[usize; D])) {
-    if ext.contains(&0) {
-        return;
-    }
-    let mut row = [0usize; D];
-    loop {
-        f(&row);
-        let mut a = 1;
-        loop {
-            if a == D {
-                return;
-            }
-            row[a] += 1;
-            if row[a] < ext[a] {
-                break;
-            }
-            row[a] = 0;
-            a += 1;
-        }
-    }
+    let mut rows = *ext;
+    rows[0] = 1;
+    for_each_index(&[0; D], &rows, |k| f(&k.map(|c| c as usize)));
 }
 
 fn block_origin<const D: usize>(mut id: usize, dims: &[usize; D], b: i64) -> [i64; D] {
