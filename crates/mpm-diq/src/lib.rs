@@ -83,7 +83,9 @@ pub mod domain;
 pub mod fluid;
 pub mod pressure;
 
-pub use coupled::{CoupledError, CouplingIteration, DiqCoupled, InterfacePoints, SolidParams};
+pub use coupled::{
+    CoupledError, CouplingIteration, DiqCoupled, InterfacePoints, InterfaceQuadrature, SolidParams,
+};
 pub use domain::{Domain, WallPoint, WallSample};
 pub use fluid::{DiqFluid, DiqParams, GradientQuadrature};
 pub use pressure::{

@@ -75,6 +75,7 @@ where
         Some(solids) => {
             let solid = SolidParams {
                 interface_radius: own.diq.interface_radius,
+                interface: own.diq.interface,
                 tlmpm: TlmpmParams {
                     kernel: Kernel::Quadratic,
                     ..super::tlmpm::params::<D>(scene, solids, &spec)

@@ -14,7 +14,9 @@ use super::{Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::boundary::ContactKind;
 use mpm_core::{Columns, Kernel};
-use mpm_diq::{CouplingIteration, GradientQuadrature, PressureMethod, PressureParams};
+use mpm_diq::{
+    CouplingIteration, GradientQuadrature, InterfaceQuadrature, PressureMethod, PressureParams,
+};
 use serde::{Deserialize, Serialize};
 
 /// The DIQ solver's tables as written.
@@ -36,6 +38,7 @@ struct RawDiq {
     position_correction: Option<bool>,
     gradient_quadrature: Option<GradientQuadrature>,
     interface_radius: Option<f64>,
+    interface: Option<InterfaceQuadrature>,
     coupling_passes: Option<usize>,
     coupling_strain_tolerance: Option<f64>,
 }
@@ -58,6 +61,10 @@ pub struct DiqDef {
     /// this close), as a fraction of Δx (dimensionless; diq-mpm §4.6: 0.5). Read only when the
     /// scene has solids.
     pub interface_radius: f64,
+    /// Where the interface rows are integrated: `"solid_particles"` (default, diq-mpm §4.6) or
+    /// `"fluid_nodes"` (well balanced at rest; see `mpm_diq::InterfaceQuadrature`). Read only
+    /// when the scene has solids.
+    pub interface: InterfaceQuadrature,
     /// Most coupled projections per step of the partitioned iteration between the solids'
     /// elastic solve and the projection (1: the paper's one-pass split). Read only when the
     /// scene has solids.
@@ -158,11 +165,13 @@ fn resolve_diq(c: &mut Checker<'_>, raw: RawDiqTables, common: Common<'_>) -> Di
     }
     let t = raw.diq.as_ref();
     let interface_radius = t.and_then(|t| t.interface_radius);
+    let interface = t.and_then(|t| t.interface);
     let passes = t.and_then(|t| t.coupling_passes);
     let strain_tolerance = t.and_then(|t| t.coupling_strain_tolerance);
     if !has_solid {
         for (key, present) in [
             ("diq.interface_radius", interface_radius.is_some()),
+            ("diq.interface", interface.is_some()),
             ("diq.coupling_passes", passes.is_some()),
             ("diq.coupling_strain_tolerance", strain_tolerance.is_some()),
         ] {
@@ -196,6 +205,7 @@ fn resolve_diq(c: &mut Checker<'_>, raw: RawDiqTables, common: Common<'_>) -> Di
                 |x| x > 0.0 && x <= 2.0,
                 "must lie in (0, 2] (a fraction of dx)",
             ),
+            interface: interface.unwrap_or_default(),
             coupling_passes,
             coupling_strain_tolerance: c.num(
                 "diq.coupling_strain_tolerance",
