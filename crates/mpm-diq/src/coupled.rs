@@ -199,9 +199,11 @@ pub enum InterfaceQuadrature {
     /// exactly (tested to round-off), which the paper's quadrature cannot (one normal force
     /// per point, spread over nodes whose `G^f` forces differ).
     ///
-    /// The price and the limits: where both components are held (convex corners of the cell
-    /// staircase) the fluid does not slip along the solid at that node; a free-surface or wall
-    /// node next to a solid also gets rows for its air or wall part of `b_i`. The position
+    /// The price and the limits: every nonzero component is held, so the fluid does not slip
+    /// along the solid where `b_i` has a tangential part: at convex corners of the cell
+    /// staircase, at free-surface or wall nodes next to a solid (their air or wall part), and
+    /// along a face wherever neighbouring cells hold unequal fluid volumes (a water film
+    /// sliding down a wall reaches only 0.76–0.93 of free slide; `docs/diq.md`). The position
     /// correction does not count the solids' volume here (the fluid ends at the cell
     /// staircase, which that volume overlaps), and it is best switched off (`docs/diq.md`).
     FluidNodes,
