@@ -919,13 +919,14 @@ where
         solids.build(&sp.x, dx);
         // A component below this is round-off of the sum over equal cells (m² in 3D).
         let tol = 1e-9 * dx.powi(D as i32 - 1);
+        // The solid particles in a node's B1 support, weighted by its tent (reused buffer).
+        let mut near: Vec<(usize, Real)> = Vec::new();
         for (i, bi) in b.iter().enumerate() {
             if bi.iter().all(|c| c.abs() <= tol) {
                 continue;
             }
             let xi = domain.spec.node_position(&domain.spec.multi_index(i));
-            // The solid particles in the node's B1 support, weighted by its tent.
-            let mut near: Vec<(usize, Real)> = Vec::new();
+            near.clear();
             solids.for_each_candidate_near(&xi, |q| {
                 let w: Real = (0..D)
                     .map(|a| (1.0 - (sp.x[q][a] - xi[a]).abs() / dx).max(0.0))
