@@ -589,7 +589,10 @@ where
             },
         );
         if fluid {
-            plan.push(Stage::GridUpdate, "fluid predictor v* = v + dt g");
+            plan.push(
+                Stage::GridUpdate,
+                format!("fluid {}", self.fluid.predictor_plan()),
+            );
         }
         plan.push(Stage::ExternalForces, "solid: gravity");
         if let Some(c) = &self.solid_params.tlmpm.contact {
@@ -1086,6 +1089,7 @@ where
             },
             passes,
         ];
+        solves.extend(nodes.viscous);
         if let Some(f) = &fluid {
             solves.extend(f.solves.iter().copied());
         }

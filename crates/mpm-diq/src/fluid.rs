@@ -4,6 +4,7 @@ use crate::domain::{corner_weights, Domain, WallSample};
 use crate::pressure::{
     Constraints, PressureError, PressureInfo, PressureParams, PressureSystem, UnknownKind,
 };
+use crate::viscosity::Viscous;
 use mpm_core::boundary::{Boundaries, ContactKind};
 use mpm_core::columns::{self, Column};
 use mpm_core::solver::{DtBound, FieldInfo, RestoreError, StageTime};
@@ -93,7 +94,7 @@ pub(crate) struct Bins {
 }
 
 impl Bins {
-    fn of(&self, c: usize) -> &[usize] {
+    pub(crate) fn of(&self, c: usize) -> &[usize] {
         &self.order[self.start[c]..self.start[c + 1]]
     }
 }
@@ -107,6 +108,8 @@ pub(crate) struct NodeFields<const D: usize> {
     /// Particle volume transferred to the node (m^D).
     pub(crate) volume: Vec<Real>,
     pub(crate) inv_mass: Vec<Real>,
+    /// What the implicit viscosity's solve did, when a particle is viscous.
+    pub(crate) viscous: Option<SolveInfo>,
 }
 
 /// The points a fluid transfer integrates over: the fluid particles, or (coupled solver) the
@@ -161,6 +164,8 @@ pub struct DiqFluid<const D: usize> {
     particles: Particles<D>,
     time: Real,
     steps: u64,
+    /// Dynamic viscosity μ of each particle's material (Pa·s).
+    viscosity: Vec<Real>,
     /// Solved pressure of each particle's cell at the last step (Pa).
     pressure: Vec<Real>,
     /// Discrete divergence of each particle's cell after the last projection (1/s).
@@ -187,8 +192,9 @@ impl<const D: usize> DiqFluid<D>
 where
     Dim<D>: DimOps<D>,
 {
-    /// Builds the solver. Every material must be a fluid (its density is used; the equation of
-    /// state and the viscosity are not: this fluid is incompressible and inviscid); walls and colliders
+    /// Builds the solver. Every material must be a fluid (its density and its viscosity are
+    /// used, the equation of state is not: this fluid is incompressible; a viscosity above zero
+    /// adds the implicit viscous solve of [`crate::viscosity`]); walls and colliders
     /// must be free slip without friction (Eq. 25); every particle must lie inside the wall box.
     pub fn new(
         spec: GridSpec<D>,
@@ -332,9 +338,18 @@ where
         }
         let wall_by_cell = (start, list);
         let n = particles.len();
+        let viscosity = particles
+            .material
+            .iter()
+            .map(|&m| match &materials[m as usize] {
+                Material::Fluid(f) => f.viscosity,
+                Material::Solid(_) => 0.0,
+            })
+            .collect();
         let mut solver = Self {
             domain,
             params,
+            viscosity,
             materials,
             boundaries,
             particles,
@@ -364,7 +379,7 @@ where
             Stage::P2G,
             "APIC to linear B-spline (B1) nodes: lumped mass M^f, momentum",
         );
-        plan.push(Stage::GridUpdate, "predictor v* = v + dt g");
+        plan.push(Stage::GridUpdate, self.predictor_plan());
         let walls = match (self.domain.walls, self.domain.colliders.len()) {
             (true, 0) => "slip walls".to_string(),
             (true, k) => format!("slip walls and {k} collider(s)"),
@@ -390,6 +405,20 @@ where
             );
         }
         plan
+    }
+
+    /// The grid update's line of the plan: the predictor, and the implicit viscosity when a
+    /// particle is viscous.
+    pub(crate) fn predictor_plan(&self) -> String {
+        let mu = self.viscosity.iter().copied().fold(0.0, Real::max);
+        if mu > 0.0 {
+            format!(
+                "predictor v* = v + dt g, then implicit viscosity (μ up to {mu:e} Pa·s): \
+                 (M + dt K) v = M v*, Jacobi CG"
+            )
+        } else {
+            "predictor v* = v + dt g".into()
+        }
     }
 
     /// The fluid domain (walls, colliders, cells).
@@ -778,7 +807,34 @@ where
         let bins = times.time(Stage::Sort, || self.bin(points.x));
         let mut nodes = times.time(Stage::P2G, || self.transfer(points, &bins, true));
         times.time(Stage::GridUpdate, || self.predict(&mut nodes, dt))?;
+        nodes.viscous = times.time(Stage::GridUpdate, || self.viscous(&bins, &mut nodes, dt))?;
         Ok((bins, nodes))
+    }
+
+    /// The implicit viscous solve on the predictor `nodes.velocity`, over the particles' own
+    /// positions and volumes (the first entries of what `bins` sorted); `None` for an inviscid
+    /// fluid.
+    fn viscous(
+        &self,
+        bins: &Bins,
+        nodes: &mut NodeFields<D>,
+        dt: Real,
+    ) -> Result<Option<SolveInfo>, Failure<PressureError>> {
+        let ps = &self.particles;
+        let Some(system) = Viscous::new(
+            &self.domain,
+            bins,
+            (&ps.x, &ps.volume0, &self.viscosity),
+            &nodes.mass,
+            dt,
+        ) else {
+            return Ok(None);
+        };
+        let p = &self.params.pressure;
+        system
+            .solve(&mut nodes.velocity, (p.rel_tol, p.max_iterations))
+            .map(Some)
+            .map_err(|e| Failure::Solve(Stage::GridUpdate, e))
     }
 
     /// The stages of an attempt after the projection: G2P and the position correction, with
@@ -801,6 +857,7 @@ where
             iterations: info.iterations,
             residual: info.relative_residual,
         }];
+        solves.extend(nodes.viscous);
         let mut events = vec![("pressure_unknowns", info.unknowns as u64)];
         if info.pattern_reused {
             events.push(("pressure_pattern_reused", 1));

@@ -82,6 +82,7 @@ pub mod coupled;
 pub mod domain;
 pub mod fluid;
 pub mod pressure;
+pub mod viscosity;
 
 pub use coupled::{
     CoupledError, CouplingIteration, DiqCoupled, InterfacePoints, InterfaceQuadrature, SolidParams,

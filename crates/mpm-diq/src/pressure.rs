@@ -154,6 +154,9 @@ pub enum PressureError {
     /// The preconditioner could not be built from the matrix.
     #[error("pressure preconditioner: {0}")]
     Preconditioner(CgError),
+    /// The implicit viscosity's CG failed (see [`crate::viscosity`]).
+    #[error("viscosity CG (Jacobi): {0}")]
+    Viscosity(CgError),
 }
 
 /// What one pressure solve did.

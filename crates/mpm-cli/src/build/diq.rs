@@ -7,7 +7,7 @@ use super::{
     ErrorKeys, Start,
 };
 use crate::error::SceneError;
-use crate::scene::{DiqScene, LoadedScene, ModelDef};
+use crate::scene::{DiqScene, LoadedScene};
 use mpm_core::{Dim, DimOps, Kernel, Solver};
 use mpm_diq::{CouplingIteration, DiqCoupled, DiqFluid, DiqParams, SolidParams};
 use mpm_tlmpm::TlmpmParams;
@@ -23,7 +23,7 @@ const PARAMETER_KEYS: [(&str, &str); 6] = [
 ];
 
 /// Builds the DIQ fluid solver from the sampled scene, with the start-up warnings (unused
-/// materials, viscosities the inviscid fluid ignores).
+/// materials).
 pub fn build<const D: usize>(
     scene: &LoadedScene,
     own: &DiqScene,
@@ -39,17 +39,7 @@ where
         particles,
         bodies,
     } = start;
-    let mut warnings = unused_materials(sc, &particles, None);
-    for m in &sc.materials {
-        if let ModelDef::Tait(f) = m.model {
-            if f.viscosity != 0.0 {
-                warnings.push(format!(
-                    "material \"{}\": viscosity {} Pa·s is ignored, the DIQ fluid is inviscid",
-                    m.name, f.viscosity
-                ));
-            }
-        }
-    }
+    let warnings = unused_materials(sc, &particles, None);
     let s = &sc.simulation;
     let params = DiqParams {
         time_step: time_step_policy(s),
