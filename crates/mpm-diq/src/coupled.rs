@@ -190,22 +190,29 @@ pub enum InterfaceQuadrature {
     /// particles' mass and volume. The fluid rows' coefficients summed at a node give the
     /// discrete boundary vector `b_i = −Σ_c V_c ∇w_i(x_c)` (the `∫_Γ w_i n dA` that closes
     /// `G^f`; zero at a node surrounded by fluid cells of equal volume). At each node with a
-    /// solid particle in its B1 support, each nonzero axis component `b_{i,a} e_a` gets its own
-    /// interface pressure, with the row `b_{i,a} (v_{i,a} − V_a)`: `V` is the solid's velocity
-    /// at the node, the mean of its interpolated velocities at the solid particles `q` in that
-    /// support (`W_j(X_q)` of Eq. 33) weighted by the node's tent `w_i(x_q)` (symmetric, and
-    /// exact for rigid translations). Every fluid node's rows can then hold any pressure field
-    /// `G^f` can: a hydrostatic pressure beside a clamped solid balances gravity at every node
-    /// exactly (tested to round-off), which the paper's quadrature cannot (one normal force
-    /// per point, spread over nodes whose `G^f` forces differ).
+    /// solid particle in its B1 support, the axis components `b_{i,a} e_a` the node holds get
+    /// their own interface pressure, with the row `b_{i,a} (v_{i,a} − V_a)`: `V` is the solid's
+    /// velocity at the node, the mean of its interpolated velocities at the solid particles `q`
+    /// in that support (`W_j(X_q)` of Eq. 33) weighted by the node's tent `w_i(x_q)` (symmetric,
+    /// and exact for rigid translations). A node holds the axes along which the solid's
+    /// outward normal there, from the solid volume fractions of its `2^D` cells, has at least
+    /// half its largest component (`held_axes`): on a face of the cell staircase only the normal
+    /// axis, so the fluid slips along the face, also where a free surface or unequal cell
+    /// volumes give `b_i` a tangential part; at convex and concave corners every axis, which
+    /// balances a hydrostatic pressure there (one normal force cannot, `docs/diq.md`). A
+    /// hydrostatic pressure beside a clamped solid then balances gravity at every node exactly
+    /// (tested to round-off), which the paper's quadrature cannot (one normal force per point,
+    /// spread over nodes whose `G^f` forces differ).
     ///
-    /// The price and the limits: every nonzero component is held, so the fluid does not slip
-    /// along the solid where `b_i` has a tangential part: at convex corners of the cell
-    /// staircase, at free-surface or wall nodes next to a solid (their air or wall part), and
-    /// along a face wherever neighbouring cells hold unequal fluid volumes (a water film
-    /// sliding down a wall reaches only 0.76–0.93 of free slide; `docs/diq.md`). The position
-    /// correction does not count the solids' volume here (the fluid ends at the cell
-    /// staircase, which that volume overlaps), and it is best switched off (`docs/diq.md`).
+    /// Measured (`docs/diq.md`): blocks of 0.25–0.75 the density of 50 Pa·s water settle
+    /// within 0.40 cell of their draft at Δx = 1/32–1/64 m (validation case
+    /// `floating_block_diq`); a water film slides down a wall at 0.988–1.000 of free slide
+    /// (`free_slip_wall`, Δx = 1/32–1/64 m; the paper's rows 0.9995–1.0000); the fluid is held
+    /// at the corner nodes of the staircase. The position correction does
+    /// not count the solids' volume here (the fluid ends at the cell staircase, which that
+    /// volume overlaps), and it is best switched off (`docs/diq.md`). A step costs up to 3
+    /// times the paper's at Δx = 1/64 m (the rows' solid parts span the stencils of every solid
+    /// particle in a node's support, which fills the interface block of the matrix).
     FluidNodes,
 }
 
@@ -920,6 +927,7 @@ where
         }
         let mut solids = CellList::default();
         solids.build(&sp.x, dx);
+        let held = self.held_axes(domain);
         // A component below this is round-off of the sum over equal cells (m² in 3D).
         let tol = 1e-9 * dx.powi(D as i32 - 1);
         // The solid particles in a node's B1 support, weighted by its tent (reused buffer).
@@ -943,7 +951,8 @@ where
             }
             near.sort_unstable_by_key(|e| e.0);
             let total: Real = near.iter().map(|e| e.1).sum();
-            for a in (0..D).filter(|&a| bi[a].abs() > tol) {
+            let axes = held(i);
+            for a in (0..D).filter(|&a| bi[a].abs() > tol && axes[a]) {
                 let mut part = Vector::<D>::zeros();
                 part[a] = bi[a];
                 let solid = near.iter().flat_map(|&(q, w)| {
@@ -958,6 +967,45 @@ where
                     0.0,
                 );
             }
+        }
+    }
+
+    /// Which axes the node rows hold at each node: those along which the solid's outward
+    /// normal at the node has at least half its largest component. The normal is
+    /// `n_i = Σ_c θ_c ∇w_i(x_c)` over the `2^D` cells around node `i`, `θ_c` the cell's solid
+    /// volume fraction (reference volumes of the solid particles in it, capped at 1): along a
+    /// face of the cell staircase only the normal axis (the fluid slips along the face), at a
+    /// convex or concave corner every axis (where one normal row cannot balance a hydrostatic
+    /// pressure, `docs/diq.md`); a stray solid particle in a fluid cell tilts `n_i` too little
+    /// to add an axis. A node with no solid volume around it holds every axis.
+    fn held_axes<'s>(&'s self, domain: &'s Domain<D>) -> impl Fn(usize) -> [bool; D] + 's {
+        let sp = self.solid.particles();
+        let cell_volume = domain.spec.cell_volume();
+        let mut fraction = vec![0.0; domain.num_cells()];
+        for q in 0..sp.len() {
+            if let Some((m, _)) = domain.locate(&sp.x[q]) {
+                fraction[domain.cell_index(&m)] += sp.volume0[q] / cell_volume;
+            }
+        }
+        let mut w = [0.0; 8];
+        let mut g = [Vector::<D>::zeros(); 8];
+        crate::domain::corner_weights(&[0.5; D], domain.spec.dx, &mut w, &mut g);
+        move |i| {
+            let node = domain.spec.multi_index(i);
+            let mut n = Vector::<D>::zeros();
+            'corner: for (j, gj) in g.iter().enumerate().take(Domain::<D>::CORNERS) {
+                let mut cell = [0usize; D];
+                for a in 0..D {
+                    let k = node[a] - ((j >> a) & 1) as i64;
+                    if k < 0 || k >= domain.cell_dims[a] as i64 {
+                        continue 'corner;
+                    }
+                    cell[a] = k as usize;
+                }
+                n += gj * fraction[domain.cell_index(&cell)].min(1.0);
+            }
+            let largest = n.amax();
+            std::array::from_fn(|a| largest == 0.0 || n[a].abs() >= 0.5 * largest)
         }
     }
 

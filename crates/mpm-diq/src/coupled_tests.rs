@@ -1051,3 +1051,102 @@ fn plastic_coupled_run_is_bitwise_across_threads_and_a_resume() {
     let resumed = assert_bitwise_across_threads_and_resume(|| dilating_soil(1e-4), 3);
     assert!(resumed.solid().reference_updates() >= 4);
 }
+
+#[test]
+fn node_rows_hold_the_normal_on_faces_and_both_axes_at_corners() {
+    // The clamped block of the test above, its faces on grid lines (Δx = 1/16 m): each node
+    // on a face gets one interface row (its normal; the fluid slips along the face), each of
+    // the four corner nodes two (a hydrostatic pressure needs both there).
+    let n = 16;
+    let dx = 1.0 / n as Real;
+    let mut s = submerged(n, (1e8, 1.0), true, InterfaceQuadrature::FluidNodes);
+    let (rows, _, _) = s.coupled_problem(5e-3).unwrap();
+    let spec = GridSpec::<2>::new(Vector::<2>::from_element(-dx), dx, [n + 3, n + 3]);
+    let mut count = std::collections::BTreeMap::<usize, usize>::new();
+    for (k, kind) in rows.kinds.iter().enumerate() {
+        if *kind == UnknownKind::Interface {
+            *count.entry(rows.anchors[k]).or_default() += 1;
+        }
+    }
+    let (lo, hi) = ([0.375, 0.25], [0.625, 0.5]);
+    let near = |a: Real, b: Real| (a - b).abs() < 1e-9;
+    for (&node, &c) in &count {
+        let x = spec.node_position(&spec.multi_index(node));
+        let on_x = near(x[0], lo[0]) || near(x[0], hi[0]);
+        let on_y = near(x[1], lo[1]) || near(x[1], hi[1]);
+        let inside = (0..2).all(|a| x[a] > lo[a] - 1e-9 && x[a] < hi[a] + 1e-9);
+        assert!(inside && (on_x || on_y), "a row off the block at {x:?}");
+        let expected = if on_x && on_y { 2 } else { 1 };
+        assert_eq!(c, expected, "{c} interface rows at {x:?}");
+    }
+    // 3 face nodes per side between the corners, and the corners.
+    assert_eq!(count.len(), 4 * 3 + 4);
+}
+
+#[test]
+fn a_film_slides_freely_down_a_clamped_wall_with_the_node_rows() {
+    // A 0.1 m film of water against the face of a clamped elastic wall, gravity tilted
+    // towards the wall (the validation case free_slip_wall at Δx = 1/32 m): with free slip it
+    // moves as if the wall were not there, v = g_t t along the face.
+    let n = 32;
+    let dx = 1.0 / n as Real;
+    let face = 0.4;
+    let mut ps = Particles::new(columns());
+    let still = Vector::<2>::zeros();
+    lattice(
+        &mut ps,
+        ([face, 0.5], [face + 0.1, 0.8]),
+        dx,
+        (0, RHO_F),
+        still,
+        |_| true,
+    );
+    lattice(
+        &mut ps,
+        ([0.2, 0.1], [face, 0.9]),
+        dx,
+        (1, 1000.0),
+        still,
+        |_| true,
+    );
+    let tlmpm = mpm_tlmpm::TlmpmParams {
+        fixed: vec![mpm_tlmpm::FixedRegion::clamp(
+            Vector::<2>::zeros(),
+            Vector::<2>::new(face - 3.0 * dx, 1.0),
+        )],
+        ..mpm_tlmpm::TlmpmParams::default()
+    };
+    let (g_n, g_t) = (2.0, 9.6);
+    let mut p = params::<2>(5e-3, true);
+    p.gravity = Vector::<2>::new(-g_n, -g_t);
+    p.position_correction = false;
+    let mut s = DiqCoupled::new(
+        GridSpec::new(Vector::<2>::from_element(-dx), dx, [n + 3, n + 3]),
+        p,
+        SolidParams {
+            interface: InterfaceQuadrature::FluidNodes,
+            tlmpm,
+            ..SolidParams::default()
+        },
+        materials(1000.0, 1e6),
+        walls(false),
+        ps,
+    )
+    .unwrap();
+    while s.time() < 0.15 {
+        s.advance().unwrap();
+    }
+    let p = s.particles();
+    let film = s.fluid_indices();
+    let m: Real = film.iter().map(|&f| p.mass[f]).sum();
+    let v = -film.iter().map(|&f| p.mass[f] * p.v[f][1]).sum::<Real>() / m;
+    let ratio = v / (g_t * s.time());
+    assert!((ratio - 1.0).abs() < 0.01, "film at {ratio} of free slide");
+    // Still on the wall: pressed against it, not flying off.
+    let gap = film
+        .iter()
+        .map(|&f| p.x[f][0])
+        .fold(Real::INFINITY, Real::min)
+        - face;
+    assert!(gap < 0.5 * dx, "film {gap} m off the wall");
+}
