@@ -218,7 +218,7 @@ pub fn plot_case(
 /// written).
 pub fn run_validation(opts: &Options) -> Report {
     let names: Vec<&str> = if opts.cases.is_empty() {
-        cases::default_names(opts.mode)
+        cases::names()
     } else {
         opts.cases.iter().map(String::as_str).collect()
     };
@@ -289,18 +289,6 @@ mod tests {
 
     fn args(s: &str) -> Vec<String> {
         s.split_whitespace().map(String::from).collect()
-    }
-
-    #[test]
-    fn the_quick_set_leaves_out_the_open_defects_only() {
-        let (quick, full) = (
-            cases::default_names(Mode::Quick),
-            cases::default_names(Mode::Full),
-        );
-        assert_eq!(full, cases::names());
-        assert!(!quick.contains(&cases::diq_coupled::floating_block::NAME));
-        assert_eq!(quick.len() + cases::OPEN_DEFECTS.len(), full.len());
-        assert!(quick.iter().all(|n| !cases::OPEN_DEFECTS.contains(n)));
     }
 
     #[test]

@@ -27,13 +27,18 @@ const G: Real = 9.81;
 
 /// A fluid that is not used for its equation of state (the DIQ fluid is incompressible).
 pub(crate) fn water() -> Material {
+    viscous_water(0.0)
+}
+
+/// Water of dynamic viscosity `mu` (Pa·s); its equation of state is not used by DIQ.
+pub(crate) fn viscous_water(mu: Real) -> Material {
     Material::Fluid(FluidMaterial {
         density: RHO,
         eos: Tait {
             bulk_modulus: 2e6,
             gamma: 7.0,
         },
-        viscosity: 0.0,
+        viscosity: mu,
     })
 }
 

@@ -175,19 +175,6 @@ pub static REGISTRY: &[&dyn Case] = &[
     },
 ];
 
-/// Cases that measure a defect still open (issue 12: DIQ-MPM's floating block sinks, see
-/// `docs/diq.md`): they run in the full report and when named with `--case`, not in the quick
-/// set, so that the quick set (CI's `--strict` gate) keeps failing on regressions only.
-pub const OPEN_DEFECTS: &[&str] = &[diq_coupled::floating_block::NAME];
-
-/// The cases a run without `--case` takes in `mode`.
-pub fn default_names(mode: Mode) -> Vec<&'static str> {
-    names()
-        .into_iter()
-        .filter(|n| mode == Mode::Full || !OPEN_DEFECTS.contains(n))
-        .collect()
-}
-
 /// The names of all cases, in the order they run.
 pub fn names() -> Vec<&'static str> {
     REGISTRY.iter().map(|c| c.name()).collect()
