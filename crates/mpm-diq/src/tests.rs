@@ -342,16 +342,17 @@ fn position_correction_bounds_volume_drift() {
     assert!(with < without, "correction {with} vs none {without}");
 }
 
-#[test]
-fn bitwise_identical_across_threads_and_resume() {
+/// Runs `make()` for `2 × steps` steps on 1 and on 2 threads, and again resumed from the
+/// checkpoint after `steps`: the three final checkpoints must be bitwise equal.
+fn assert_bitwise_across_threads_and_resume(make: impl Fn() -> DiqFluid<2> + Sync, steps: usize) {
     let run = |threads: usize| {
         with_threads(threads, || {
-            let mut f = dam_break(24, true);
-            for _ in 0..15 {
+            let mut f = make();
+            for _ in 0..steps {
                 f.advance().unwrap();
             }
             let state = f.checkpoint();
-            for _ in 0..15 {
+            for _ in 0..steps {
                 f.advance().unwrap();
             }
             (state, f.checkpoint())
@@ -360,12 +361,17 @@ fn bitwise_identical_across_threads_and_resume() {
     let (mid1, end1) = run(1);
     let (_, end2) = run(2);
     assert_eq!(end1, end2, "1 vs 2 threads");
-    let mut resumed = dam_break(24, true);
+    let mut resumed = make();
     resumed.restore(&mid1).unwrap();
-    for _ in 0..15 {
+    for _ in 0..steps {
         resumed.advance().unwrap();
     }
     assert_eq!(resumed.checkpoint(), end1, "resume from checkpoint");
+}
+
+#[test]
+fn bitwise_identical_across_threads_and_resume() {
+    assert_bitwise_across_threads_and_resume(|| dam_break(24, true), 15);
 }
 
 #[test]
@@ -767,26 +773,5 @@ fn viscosity_keeps_momentum_and_only_removes_energy() {
 
 #[test]
 fn viscous_runs_are_bitwise_across_threads_and_resume() {
-    let run = |threads: usize| {
-        with_threads(threads, || {
-            let mut f = swirl(50.0);
-            for _ in 0..5 {
-                f.advance().unwrap();
-            }
-            let state = f.checkpoint();
-            for _ in 0..5 {
-                f.advance().unwrap();
-            }
-            (state, f.checkpoint())
-        })
-    };
-    let (mid1, end1) = run(1);
-    let (_, end2) = run(2);
-    assert_eq!(end1, end2, "1 vs 2 threads");
-    let mut resumed = swirl(50.0);
-    resumed.restore(&mid1).unwrap();
-    for _ in 0..5 {
-        resumed.advance().unwrap();
-    }
-    assert_eq!(resumed.checkpoint(), end1, "resume from checkpoint");
+    assert_bitwise_across_threads_and_resume(|| swirl(50.0), 5);
 }
