@@ -1150,3 +1150,95 @@ fn a_film_slides_freely_down_a_clamped_wall_with_the_node_rows() {
         - face;
     assert!(gap < 0.5 * dx, "film {gap} m off the wall");
 }
+
+#[test]
+fn a_block_released_on_viscous_water_settles_at_its_draft_with_the_node_rows() {
+    // The scene of the validation case floating_block_diq at Δx = 1/32 m, ρs/ρf = 0.5: a
+    // 0.2 × 0.1 m block released with its bottom on 0.2 m of 50 Pa·s water in the unit tank.
+    // Archimedes: draft (ρs/ρf) h = 0.05 m.
+    let n = 32;
+    let dx = 1.0 / n as Real;
+    let (depth, (x0, x1), height) = (0.2, (0.4, 0.6), 0.1);
+    let mut ps = Particles::new(columns());
+    let still = Vector::<2>::zeros();
+    lattice(
+        &mut ps,
+        ([0.0, 0.0], [1.0, depth]),
+        dx,
+        (0, RHO_F),
+        still,
+        |_| true,
+    );
+    lattice(
+        &mut ps,
+        ([x0, depth], [x1, depth + height]),
+        dx,
+        (1, 500.0),
+        still,
+        |_| true,
+    );
+    let mut mats = materials(500.0, 5e4);
+    if let Material::Fluid(f) = &mut mats[0] {
+        f.viscosity = 50.0;
+    }
+    let mut p = params::<2>(3e-3, true);
+    p.position_correction = false;
+    let mut s = DiqCoupled::new(
+        GridSpec::new(Vector::<2>::from_element(-dx), dx, [n + 3, n + 3]),
+        p,
+        SolidParams {
+            interface: InterfaceQuadrature::FluidNodes,
+            tlmpm: mpm_tlmpm::TlmpmParams {
+                contact: tank_walls(),
+                ..mpm_tlmpm::TlmpmParams::default()
+            },
+            ..SolidParams::default()
+        },
+        mats,
+        walls(true),
+        ps,
+    )
+    .unwrap();
+    let solid = s.solid_indices().to_vec();
+    let centre = |s: &DiqCoupled<2>| {
+        let p = s.particles();
+        solid.iter().map(|&q| p.x[q][0]).sum::<Real>() / solid.len() as Real
+    };
+    let start = centre(&s);
+    let draft = |s: &DiqCoupled<2>| {
+        let p = s.particles();
+        // The free surface beside the left wall and the block's bottom face, each a quarter
+        // cell beyond its outermost particle row (2 particles per cell and axis).
+        let surface = s
+            .fluid_indices()
+            .iter()
+            .filter(|&&q| p.x[q][0] < 0.2)
+            .map(|&q| p.x[q][1])
+            .fold(Real::NEG_INFINITY, Real::max)
+            + 0.25 * dx;
+        let bottom = lowest(s) - 0.25 * dx;
+        surface - bottom
+    };
+    let (mut sum, mut count, mut swing) = (0.0, 0, (Real::INFINITY, Real::NEG_INFINITY));
+    while s.time() < 2.0 {
+        s.advance().unwrap();
+        if s.time() > 1.5 {
+            let d = draft(&s);
+            sum += d;
+            count += 1;
+            swing = (swing.0.min(d), swing.1.max(d));
+        }
+    }
+    let mean = sum / count as Real;
+    assert!(
+        (mean - 0.05).abs() < 0.5 * dx,
+        "draft {mean} m against 0.05 m (Δx = {dx} m)"
+    );
+    assert!(
+        swing.1 - swing.0 < 0.25 * dx,
+        "heave {} m",
+        swing.1 - swing.0
+    );
+    let drift = (centre(&s) - start).abs();
+    assert!(drift < 0.5 * dx, "drift {drift} m");
+}
