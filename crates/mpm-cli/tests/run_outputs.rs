@@ -337,7 +337,7 @@ fn example_scenes_check_and_start() {
         let out = run_scene(&d, &name, &short.join("\n"));
         assert_eq!(numbered_files(&out, "snap_").len(), 4, "{name}");
     }
-    assert_eq!(count, 30, "the thirty example scenes");
+    assert_eq!(count, 31, "the thirty-one example scenes");
 }
 
 #[test]
