@@ -211,8 +211,8 @@ pub enum InterfaceQuadrature {
     /// at the corner nodes of the staircase. The position correction does
     /// not count the solids' volume here (the fluid ends at the cell staircase, which that
     /// volume overlaps), and it is best switched off (`docs/diq.md`). A step costs up to 3
-    /// times the paper's at Δx = 1/64 m (the rows' solid parts span the stencils of every solid
-    /// particle in a node's support, which fills the interface block of the matrix).
+    /// times the paper's at Δx = 1/64 m, mostly in coupled CG iterations (86 per step against
+    /// 48 under IC(0); `docs/diq.md`).
     FluidNodes,
 }
 
