@@ -775,3 +775,53 @@ fn viscosity_keeps_momentum_and_only_removes_energy() {
 fn viscous_runs_are_bitwise_across_threads_and_resume() {
     assert_bitwise_across_threads_and_resume(|| swirl(50.0), 5);
 }
+
+#[test]
+fn viscosity_keeps_momentum_and_removes_energy_in_3d() {
+    // A 0.25 m cube of water with a shearing swirl, no walls or gravity, Δx = 1/16 m.
+    let n = 16;
+    let dx = 1.0 / n as Real;
+    let mut p = params::<3>(5e-3, false);
+    p.gravity = Vector::<3>::zeros();
+    p.pressure.rel_tol = 1e-12;
+    let cube = |mu: Real| {
+        DiqFluid::new(
+            GridSpec::new(Vector::<3>::zeros(), dx, [n + 1, n + 1, n + 1]),
+            p.clone(),
+            vec![viscous_water(mu)],
+            Boundaries::default(),
+            block([0.375; 3], [0.625; 3], dx, 2, |x| {
+                Vector::<3>::new(
+                    (6.0 * x.y).sin() + 0.2,
+                    (5.0 * x.z).cos(),
+                    (4.0 * x.x).sin(),
+                )
+            }),
+        )
+        .unwrap()
+    };
+    let totals = |f: &DiqFluid<3>| {
+        let p = f.particles();
+        let momentum = (0..p.len()).map(|q| p.v[q] * p.mass[q]).sum::<Vector<3>>();
+        let energy = (0..p.len())
+            .map(|q| 0.5 * p.mass[q] * p.v[q].norm_squared())
+            .sum::<Real>();
+        (momentum, energy)
+    };
+    let (mut f, mut inviscid) = (cube(50.0), cube(0.0));
+    let (p0, mut last) = totals(&f);
+    for _ in 0..10 {
+        inviscid.advance().unwrap();
+        let info = f.advance().unwrap();
+        assert!(info.solves.iter().any(|s| s.name == "viscosity"));
+        let (_, e) = totals(&f);
+        assert!(e < last, "kinetic energy rose from {last} to {e} J");
+        last = e;
+    }
+    let drift = (totals(&f).0 - p0).norm() / p0.norm();
+    assert!(drift < 1e-10, "momentum drift {drift}");
+    // The sine modes (k = 4–6 1/m) keep e^(−2 ν k² t) = 0.85–0.93 of their energy over the
+    // 0.05 s; the uniform part does not decay: measured 0.959 of the inviscid run's energy.
+    let ratio = last / totals(&inviscid).1;
+    assert!(ratio < 0.97, "viscous over inviscid energy {ratio}");
+}
