@@ -325,11 +325,13 @@ impl<const D: usize, const S: usize> AxisStencil<D, S> {
             d: [[0.0; S]; D],
         };
         for a in 0..D {
-            let (b, w) = kernel.weights::<S>((x[a] - spec.origin[a]) * inv_dx);
-            st.base[a] = b;
+            let (b, _, w) = kernel.stencil_1d::<S>((x[a] - spec.origin[a]) * inv_dx);
+            st.base[a] = b as i64;
             for o in 0..S {
                 st.w[a][o] = w[o];
-                st.d[a][o] = spec.origin[a] + (b + o as i64) as Real * spec.dx - x[a];
+                // `b + o` is an integer below 2⁵³, exact in floating point: the node's index
+                // as a real, without an integer-to-float conversion per node.
+                st.d[a][o] = spec.origin[a] + (b + o as Real) * spec.dx - x[a];
             }
         }
         st

@@ -117,6 +117,7 @@ fn sign_fix<const D: usize>(
 }
 
 impl DimOps<2> for Dim<2> {
+    #[inline]
     fn det(m: &Matrix2<Real>) -> Real {
         m.determinant()
     }
@@ -146,6 +147,7 @@ impl DimOps<2> for Dim<2> {
 }
 
 impl DimOps<3> for Dim<3> {
+    #[inline]
     fn det(m: &Matrix3<Real>) -> Real {
         m.determinant()
     }

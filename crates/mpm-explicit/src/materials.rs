@@ -31,11 +31,13 @@ impl<'a> MaterialView<'a> {
     }
 
     /// Whether every particle behaves exactly as its table entry.
+    #[inline]
     pub fn is_plain(&self) -> bool {
         self.interactions.is_empty() && self.mixing.is_none()
     }
 
     /// The material particle `p` behaves as.
+    #[inline]
     pub fn get<const D: usize>(&self, particles: &Particles<D>, p: usize) -> Cow<'a, Material> {
         let k = particles.material[p];
         let base = &self.table[k as usize];

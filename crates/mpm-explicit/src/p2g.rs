@@ -22,6 +22,7 @@ where
 }
 
 /// Kirchhoff stress τ = J σ (Pa) of particle `p` behaving as `material`.
+#[inline]
 pub(crate) fn stress<const D: usize>(
     particles: &Particles<D>,
     material: &Material,
@@ -83,7 +84,7 @@ impl<const D: usize> P2gInputs<'_, D>
 where
     Dim<D>: DimOps<D>,
 {
-    #[inline]
+    #[inline(always)]
     fn impulse(&self, p: usize) -> Impulse<D> {
         let ps = self.particles;
         let (t, dt) = self.step;

@@ -97,6 +97,7 @@ impl ElasticModel {
     /// Kirchhoff stress `τ = P(F) Fᵀ` (Pa). For the Neo-Hookean model this is
     /// `μ (F Fᵀ − I) + λ ln J I`, which needs no inverse of F (`F⁻ᵀ Fᵀ = I`); the other models
     /// form `P Fᵀ`.
+    #[inline]
     pub fn kirchhoff<const D: usize>(&self, f: &Matrix<D>) -> Matrix<D>
     where
         Dim<D>: DimOps<D>,

@@ -79,6 +79,7 @@ impl Material {
 
 impl SolidMaterial {
     /// Kirchhoff stress `τ = P(F) Fᵀ` (Pa) with the plastic hardening of `state` applied.
+    #[inline]
     pub fn kirchhoff<const D: usize>(&self, f: &Matrix<D>, state: &PlasticState) -> Matrix<D>
     where
         Dim<D>: DimOps<D>,
@@ -103,6 +104,7 @@ impl SolidMaterial {
 
     /// The elastic model with the plastic hardening factor of `state` applied to both Lamé
     /// parameters.
+    #[inline]
     pub fn hardened(&self, state: &PlasticState) -> ElasticModel {
         let s = self.plasticity.hardening_scale(state);
         if s == 1.0 {

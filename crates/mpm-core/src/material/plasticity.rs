@@ -85,6 +85,7 @@ const MIN_STRETCH: Real = 1e-6;
 impl Plasticity {
     /// Multiplier applied to both Lamé parameters for the current state (1 when no hardening).
     /// Snow: `exp(ξ (1 − J_P))` with the exponent clamped to ±20 so the factor stays finite.
+    #[inline]
     pub fn hardening_scale(&self, state: &PlasticState) -> Real {
         match self {
             Plasticity::Snow(s) => (s.hardening * (1.0 - state.jp))
