@@ -76,6 +76,7 @@ impl<const D: usize> GridSpec<D> {
     }
 
     /// Whether a particle at `x` (m) has its whole `kernel` stencil inside the grid.
+    #[inline]
     pub fn contains_stencil(&self, kernel: Kernel, x: &Vector<D>) -> bool {
         (0..D).all(|a| {
             let xh = (x[a] - self.origin[a]) / self.dx;

@@ -62,7 +62,7 @@ impl Kernel {
     /// First stencil node along one axis for grid-unit coordinate `xh`.
     #[inline]
     pub fn base_node(self, xh: Real) -> i64 {
-        floor(xh - self.lower_margin()) as i64
+        floor_parts(xh - self.lower_margin()).1
     }
 
     /// First node index and weights of the 1D stencil at grid-unit coordinate `xh`, for a kernel
@@ -73,20 +73,32 @@ impl Kernel {
     /// When `S != self.support()` (in debug builds; in release builds when `S` is too small).
     #[inline(always)]
     pub fn weights<const S: usize>(self, xh: Real) -> (i64, [Real; S]) {
-        let (base, _, w) = self.stencil_1d::<S>(xh);
-        (base as i64, w)
+        let (_, base, _, w) = self.stencil_1d::<S>(xh);
+        (base, w)
     }
 
-    /// The first node (as a real), `fx = xh − base` and the `S` weights at grid-unit
-    /// coordinate `xh`.
+    /// The first node (as a real and as an integer), `fx = xh − base` and the `S` weights at
+    /// grid-unit coordinate `xh`.
     #[inline(always)]
-    fn stencil_1d<const S: usize>(self, xh: Real) -> (Real, Real, [Real; S]) {
+    fn stencil_1d<const S: usize>(self, xh: Real) -> (Real, i64, Real, [Real; S]) {
         debug_assert_eq!(S, self.support());
         let mut w = [0.0; S];
-        let base = match self {
-            Kernel::Linear => floor(xh),
-            Kernel::Quadratic => floor(xh - 0.5),
-            Kernel::Cubic => floor(xh) - 1.0,
+        let (base, node) = match self {
+            Kernel::Linear => floor_parts(xh),
+            Kernel::Quadratic => floor_parts(xh - 0.5),
+            Kernel::Cubic => {
+                let (f, i) = floor_parts(xh);
+                let b = f - 1.0;
+                // `i − 1` is `b as i64` wherever `b` is an exact integer below 2⁵³.
+                (
+                    b,
+                    if b.abs() < 9007199254740992.0 {
+                        i - 1
+                    } else {
+                        b as i64
+                    },
+                )
+            }
         };
         let fx = xh - base;
         match self {
@@ -111,7 +123,7 @@ impl Kernel {
                 }
             }
         }
-        (base, fx, w)
+        (base, node, fx, w)
     }
 
     /// 1D stencil at grid-unit coordinate `xh`: first node index, weights, and derivatives of
@@ -122,14 +134,17 @@ impl Kernel {
         }
         let (base, fx, w) = match self {
             Kernel::Linear => {
-                let (b, fx, w) = self.stencil_1d::<2>(xh);
+                let (_, b, fx, w) = self.stencil_1d::<2>(xh);
                 (b, fx, padded(w))
             }
             Kernel::Quadratic => {
-                let (b, fx, w) = self.stencil_1d::<3>(xh);
+                let (_, b, fx, w) = self.stencil_1d::<3>(xh);
                 (b, fx, padded(w))
             }
-            Kernel::Cubic => self.stencil_1d::<4>(xh),
+            Kernel::Cubic => {
+                let (_, b, fx, w) = self.stencil_1d::<4>(xh);
+                (b, fx, w)
+            }
         };
         let mut dw = [0.0; MAX_SUPPORT];
         match self {
@@ -155,24 +170,36 @@ impl Kernel {
                 }
             }
         }
-        (base as i64, w, dw)
+        (base, w, dw)
     }
 }
 
-/// `⌊v⌋`, the same value as [`Real::floor`] for every input, without the library call that the
-/// baseline x86-64 target makes of it: below 2⁵² the truncation to an integer is exact.
-#[inline]
+/// `⌊v⌋`, the same value as [`Real::floor`] for every input (−0.0 included).
+#[cfg(test)]
 fn floor(v: Real) -> Real {
-    if v.abs() < 4503599627370496.0 {
-        let t = v as i64 as Real;
-        if t > v {
-            t - 1.0
-        } else {
-            // −0.0 stays −0.0.
-            t.copysign(v)
-        }
+    floor_parts(v).0
+}
+
+/// `⌊v⌋` as a real, the same value as [`Real::floor`] for every input (−0.0 included), and as
+/// an integer, the same as `⌊v⌋ as i64` (saturating), without the library call that the baseline
+/// x86-64 target makes of `floor` and without a saturating float-to-integer conversion. Below
+/// 2⁵¹ in magnitude, `s = v + 1.5 · 2⁵²` lies where the spacing of doubles is 1, so it holds `v`
+/// rounded to the nearest integer `r = s − 1.5 · 2⁵²` exactly, and the difference of the bit
+/// patterns of `s` and `1.5 · 2⁵²` is `r` as an integer; `⌊v⌋` is `r` or `r − 1`, and its sign
+/// is `v`'s (`⌊v⌋` is negative exactly when `v` is).
+#[inline]
+fn floor_parts(v: Real) -> (Real, i64) {
+    const ROUND: Real = 6755399441055744.0; // 1.5 · 2⁵²
+    if v.abs() < 2251799813685248.0 {
+        // |v| < 2⁵¹
+        let s = v + ROUND;
+        let r = s - ROUND;
+        let below = r > v;
+        let int = (s.to_bits() as i64 - ROUND.to_bits() as i64) - i64::from(below);
+        ((r - if below { 1.0 } else { 0.0 }).copysign(v), int)
     } else {
-        v.floor()
+        let f = v.floor();
+        (f, f as i64)
     }
 }
 
@@ -325,8 +352,8 @@ impl<const D: usize, const S: usize> AxisStencil<D, S> {
             d: [[0.0; S]; D],
         };
         for a in 0..D {
-            let (b, _, w) = kernel.stencil_1d::<S>((x[a] - spec.origin[a]) * inv_dx);
-            st.base[a] = b as i64;
+            let (b, node, _, w) = kernel.stencil_1d::<S>((x[a] - spec.origin[a]) * inv_dx);
+            st.base[a] = node;
             for o in 0..S {
                 st.w[a][o] = w[o];
                 // `b + o` is an integer below 2⁵³, exact in floating point: the node's index
@@ -483,10 +510,41 @@ mod tests {
             Real::NEG_INFINITY,
             Real::MIN_POSITIVE,
             -1e-300,
+            // Ties of the rounding step, both parities, and the ends of the fast path (2⁵¹).
+            2.5,
+            3.5,
+            -2.5,
+            -3.5,
+            0.49999999999999994,
+            -0.49999999999999994,
+            2251799813685247.5,
+            -2251799813685247.5,
+            2251799813685248.0,
+            -2251799813685248.0,
+            4503599627370495.5,
+            -4503599627370495.5,
         ] {
             assert_eq!(floor(v).to_bits(), v.floor().to_bits(), "{v}");
+            assert_eq!(floor_parts(v).1, v.floor() as i64, "{v}");
         }
         assert!(floor(Real::NAN).is_nan());
+        assert_eq!(floor_parts(Real::NAN).1, 0);
+        // A sweep over magnitudes from 1e-3 to 1e16, each value and its neighbours in ulps.
+        let mut v: Real = 1e-3;
+        while v < 1e16 {
+            for x in [
+                v,
+                -v,
+                v.next_up(),
+                v.next_down(),
+                -v.next_up(),
+                -v.next_down(),
+            ] {
+                assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x}");
+                assert_eq!(floor_parts(x).1, x.floor() as i64, "{x}");
+            }
+            v *= 1.0009765625;
+        }
     }
 
     #[test]

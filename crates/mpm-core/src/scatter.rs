@@ -337,7 +337,10 @@ pub struct Blocks<const D: usize> {
     /// Per particle: its block id while sorting, then its range (index into `ranges`);
     /// `u32::MAX`: not binned.
     range_of: Vec<u32>,
-    counts: Vec<usize>,
+    /// Per run of particles (one per thread), per block: particle count, then a cursor.
+    counts: Vec<Vec<u32>>,
+    /// Per block: its index in `ranges`, `u32::MAX` when empty.
+    rank: Vec<u32>,
     /// Binned particle indices, sorted by block.
     order: Vec<u32>,
     /// Non-empty blocks: (block id, start, end) ranges into `order`, ascending in block id.
@@ -353,6 +356,7 @@ impl<const D: usize> Default for Blocks<D> {
             dims: [0; D],
             range_of: Vec::new(),
             counts: Vec::new(),
+            rank: Vec::new(),
             order: Vec::new(),
             ranges: Vec::new(),
             origins: Vec::new(),
@@ -388,50 +392,90 @@ impl<const D: usize> Blocks<D> {
         debug_assert!(nblocks < u32::MAX as usize && x.len() < u32::MAX as usize);
         let inv_dx = 1.0 / spec.dx;
         let dims = self.dims;
-        x.par_iter()
+        // A stable counting sort in parallel: the particles are cut into one run per thread;
+        // each run bins its particles and counts them per block, the runs' counts give each
+        // (block, run) pair its slice of `order`, and each run fills its slices in index order.
+        // The result is that of a serial pass for any number of runs.
+        let n = x.len();
+        let run_len = n.div_ceil(rayon::current_num_threads()).max(1);
+        let runs = n.div_ceil(run_len);
+        self.counts.resize_with(runs, Vec::new);
+        self.counts.truncate(runs);
+        self.range_of.resize(n, 0);
+        self.range_of
+            .par_chunks_mut(run_len)
+            .zip(self.counts.par_iter_mut())
             .enumerate()
-            .map(|(p, xp)| {
-                if !keep(p) {
-                    return u32::MAX;
+            .for_each(|(c, (ids, counts))| {
+                counts.clear();
+                counts.resize(nblocks, 0);
+                for (i, id) in ids.iter_mut().enumerate() {
+                    let p = c * run_len + i;
+                    *id = if keep(p) {
+                        let xp = &x[p];
+                        let (mut id, mut stride) = (0, 1);
+                        for a in 0..D {
+                            let xh = (xp[a] - spec.origin[a]) * inv_dx;
+                            let base = kernel.base_node(xh).max(0) as usize;
+                            id += (base / b).min(dims[a] - 1) * stride;
+                            stride *= dims[a];
+                        }
+                        counts[id] += 1;
+                        id as u32
+                    } else {
+                        u32::MAX
+                    };
                 }
-                let mut id = 0;
-                let mut stride = 1;
-                for a in 0..D {
-                    let base = kernel.base_node((xp[a] - spec.origin[a]) * inv_dx).max(0) as usize;
-                    id += (base / b).min(dims[a] - 1) * stride;
-                    stride *= dims[a];
-                }
-                id as u32
-            })
-            .collect_into_vec(&mut self.range_of);
-        self.counts.clear();
-        self.counts.resize(nblocks + 1, 0);
-        for &id in self.range_of.iter().filter(|&&id| id != u32::MAX) {
-            self.counts[id as usize + 1] += 1;
-        }
+            });
+        // Serial over the blocks: the non-empty ones become ranges; each run's count becomes
+        // its cursor, the position of its block's particles within the range (relative).
         self.ranges.clear();
+        self.rank.clear();
+        self.rank.resize(nblocks, u32::MAX);
+        let mut start = 0;
         for id in 0..nblocks {
-            let (start, n) = (self.counts[id], self.counts[id + 1]);
-            if n > 0 {
-                self.ranges.push((id, start, start + n));
+            let mut total = 0;
+            for counts in &self.counts {
+                total += counts[id] as usize;
             }
-            self.counts[id + 1] = start + n;
+            if total > 0 {
+                self.rank[id] = self.ranges.len() as u32;
+                self.ranges.push((id, start, start + total));
+                start += total;
+            }
         }
         self.order.clear();
-        self.order.resize(self.counts[nblocks], 0);
-        for (p, &id) in self.range_of.iter().enumerate() {
-            if id == u32::MAX {
-                continue;
+        self.order.resize(start, 0);
+        let mut slices: Vec<Vec<&mut [u32]>> = (0..runs)
+            .map(|_| Vec::with_capacity(self.ranges.len()))
+            .collect();
+        let mut rest = self.order.as_mut_slice();
+        for &(id, _, _) in &self.ranges {
+            for (counts, slices) in self.counts.iter_mut().zip(&mut slices) {
+                let (head, tail) = std::mem::take(&mut rest).split_at_mut(counts[id] as usize);
+                slices.push(head);
+                rest = tail;
+                counts[id] = 0;
             }
-            let id = id as usize;
-            self.order[self.counts[id]] = p as u32;
-            self.counts[id] += 1;
         }
-        for (r, &(_, start, end)) in self.ranges.iter().enumerate() {
-            for &p in &self.order[start..end] {
-                self.range_of[p as usize] = r as u32;
-            }
-        }
+        let rank = &self.rank;
+        self.range_of
+            .par_chunks_mut(run_len)
+            .zip(self.counts.par_iter_mut())
+            .zip(slices.into_par_iter())
+            .enumerate()
+            .for_each(|(c, ((ids, cursor), mut slices))| {
+                for (i, id) in ids.iter_mut().enumerate() {
+                    if *id == u32::MAX {
+                        continue;
+                    }
+                    let r = rank[*id as usize];
+                    let k = &mut cursor[*id as usize];
+                    slices[r as usize][*k as usize] = (c * run_len + i) as u32;
+                    *k += 1;
+                    *id = r;
+                }
+            });
         self.origins.clear();
         self.origins.extend(
             self.ranges
@@ -455,7 +499,8 @@ impl<const D: usize> Blocks<D> {
     pub fn bytes(&self) -> (usize, usize) {
         let u = std::mem::size_of::<usize>();
         let per_particle = (self.range_of.len() + self.order.len()) * std::mem::size_of::<u32>();
-        let grid = self.counts.len() * u
+        let grid = (self.counts.iter().map(Vec::len).sum::<usize>() + self.rank.len())
+            * std::mem::size_of::<u32>()
             + self.ranges.len() * 3 * u
             + self.origins.len() * std::mem::size_of::<[i64; D]>();
         (per_particle, grid)
@@ -964,6 +1009,49 @@ mod tests {
             buffers3.bytes(),
             blocks.block_count() * window_len * (8 + 4)
         );
+    }
+
+    /// The parallel counting sort gives, for any number of threads (runs), the serial stable
+    /// sort: each kept particle once, in its own block's range, ascending within a range.
+    #[test]
+    fn sort_is_stable_and_the_same_for_any_thread_count() {
+        let spec = spec_2d();
+        let kernel = Kernel::Quadratic;
+        let c = cloud(&spec, 5000, 21);
+        let keep = |p: usize| p % 7 != 3;
+        let sorted = |threads: usize| {
+            with_threads(threads, || {
+                let mut blocks = Blocks::default();
+                blocks.sort_where(&spec, kernel, &c.x, keep);
+                blocks
+            })
+        };
+        let one = sorted(1);
+        let kept: Vec<u32> = (0..5000u32).filter(|&p| keep(p as usize)).collect();
+        let mut seen = one.order().to_vec();
+        seen.sort_unstable();
+        assert_eq!(seen, kept);
+        for (r, &(id, start, end)) in one.ranges.iter().enumerate() {
+            let run = &one.order()[start..end];
+            assert!(
+                run.windows(2).all(|w| w[0] < w[1]),
+                "block {id} not ascending"
+            );
+            for &p in run {
+                let (rank, window) = one.window_of(p as usize).unwrap();
+                assert_eq!(rank, r);
+                let base = Stencil::new(kernel, &spec, &c.x[p as usize]).base;
+                let b = Blocks::<2>::BLOCK_CELLS as i64;
+                assert!((0..2).all(|a| (0..b).contains(&(base[a] - window.origin()[a]))));
+            }
+        }
+        assert!(one.window_of(3).is_none());
+        for threads in [2, 3, 8] {
+            let other = sorted(threads);
+            assert_eq!(other.order(), one.order(), "{threads} threads");
+            assert_eq!(other.ranges, one.ranges, "{threads} threads");
+            assert_eq!(other.range_of, one.range_of, "{threads} threads");
+        }
     }
 
     #[test]

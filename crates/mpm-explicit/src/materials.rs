@@ -37,13 +37,26 @@ impl<'a> MaterialView<'a> {
     }
 
     /// The material particle `p` behaves as.
-    #[inline]
+    #[inline(always)]
     pub fn get<const D: usize>(&self, particles: &Particles<D>, p: usize) -> Cow<'a, Material> {
-        let k = particles.material[p];
-        let base = &self.table[k as usize];
+        let base = &self.table[particles.material[p] as usize];
         if self.is_plain() {
-            return Cow::Borrowed(base);
+            Cow::Borrowed(base)
+        } else {
+            self.modified(particles, p, base)
         }
+    }
+
+    /// [`Self::get`] when mixing or porous interactions may change the table entry `base`.
+    #[cold]
+    #[inline(never)]
+    fn modified<const D: usize>(
+        &self,
+        particles: &Particles<D>,
+        p: usize,
+        base: &'a Material,
+    ) -> Cow<'a, Material> {
+        let k = particles.material[p];
         let mut m = Cow::Borrowed(base);
         if let Some(mix) = self.mixing.filter(|mix| mix.fluids.contains(&k)) {
             if let (Material::Fluid(a), Material::Fluid(b)) = (
