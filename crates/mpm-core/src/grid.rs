@@ -78,11 +78,38 @@ impl<const D: usize> GridSpec<D> {
     /// Whether a particle at `x` (m) has its whole `kernel` stencil inside the grid.
     #[inline]
     pub fn contains_stencil(&self, kernel: Kernel, x: &Vector<D>) -> bool {
+        self.stencil_range(kernel).contains(self, x)
+    }
+
+    /// The grid-unit coordinates at which a particle has its whole `kernel` stencil inside the
+    /// grid, for testing many particles with [`StencilRange::contains`].
+    pub fn stencil_range(&self, kernel: Kernel) -> StencilRange<D> {
+        let lo = kernel.lower_margin();
+        StencilRange {
+            lo,
+            hi: std::array::from_fn(|a| (self.size[a] - kernel.support()) as Real + lo + 1.0),
+        }
+    }
+}
+
+/// Where a particle has its whole stencil inside a grid: `lo ≤ x̂_a < hi[a]` along every axis,
+/// `x̂ = (x − origin)/dx` in grid units ([`GridSpec::stencil_range`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StencilRange<const D: usize> {
+    /// Lowest grid-unit coordinate (dimensionless), the kernel's lower margin.
+    pub lo: Real,
+    /// Bound (exclusive) of the grid-unit coordinate along each axis (dimensionless).
+    pub hi: [Real; D],
+}
+
+impl<const D: usize> StencilRange<D> {
+    /// Whether a particle at `x` (m) of grid `spec` (the grid of this range) has its whole
+    /// stencil inside the grid; false for non-finite positions.
+    #[inline]
+    pub fn contains(&self, spec: &GridSpec<D>, x: &Vector<D>) -> bool {
         (0..D).all(|a| {
-            let xh = (x[a] - self.origin[a]) / self.dx;
-            let lo = kernel.lower_margin();
-            let hi = (self.size[a] - kernel.support()) as Real + lo + 1.0;
-            xh.is_finite() && xh >= lo && xh < hi
+            let xh = (x[a] - spec.origin[a]) / spec.dx;
+            xh.is_finite() && xh >= self.lo && xh < self.hi[a]
         })
     }
 }

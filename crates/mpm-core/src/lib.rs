@@ -24,7 +24,7 @@ pub mod scatter;
 pub mod solver;
 
 pub use error::{Instability, Location, SetupError, Stage, Violation};
-pub use grid::{GridNodes, GridSpec, NodeLayout};
+pub use grid::{GridNodes, GridSpec, NodeLayout, StencilRange};
 pub use kernel::{AxisStencil, Kernel, Stencil};
 pub use material::Material;
 pub use math::{Angular, Dim, DimOps, Matrix, Real, Vector};

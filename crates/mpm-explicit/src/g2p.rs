@@ -21,7 +21,7 @@ use mpm_core::material::PlasticState;
 use mpm_core::solver::nan_max;
 use mpm_core::{
     AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Location, Material, Matrix, NodeLayout,
-    Particles, Real, Stencil, Vector, Violation,
+    Particles, Real, Stencil, StencilRange, Vector, Violation,
 };
 use rayon::prelude::*;
 
@@ -176,6 +176,7 @@ struct Chunk<'a, const D: usize> {
 }
 
 impl<const D: usize> Chunk<'_, D> {
+    #[inline(always)]
     fn old(&self, i: usize) -> Old<D> {
         Old {
             x: self.x[i],
@@ -186,6 +187,7 @@ impl<const D: usize> Chunk<'_, D> {
         }
     }
 
+    #[inline(always)]
     fn write(&mut self, i: usize, u: &Update<D>) {
         self.x[i] = u.x;
         self.v[i] = u.v;
@@ -274,6 +276,7 @@ where
         }
         let mut moving = Moving::take(particles);
         let fixed: &Particles<D> = particles;
+        let range = self.spec.stencil_range(self.kernel);
         let (fault, signal) = moving
             .chunks(CHUNK)
             .into_par_iter()
@@ -285,7 +288,7 @@ where
                     let v0 = velocity_old.map(|v| v[k].as_slice());
                     let window = blocks[k].velocities(p);
                     let (u, check, c) =
-                        self.particle(fixed, (window, &grids[k], v0), p, &chunk.old(i), dt);
+                        self.particle(fixed, (window, &grids[k], v0), p, &chunk.old(i), dt, &range);
                     chunk.write(i, &u);
                     signal = nan_max(signal, c);
                     if fault.is_none() {
@@ -408,6 +411,7 @@ where
         p: usize,
         old: &Old<D>,
         dt: Real,
+        range: &StencilRange<D>,
     ) -> (Update<D>, Option<(Violation, Real)>, Real) {
         let spec = self.spec;
         let xp = old.x;
@@ -442,7 +446,7 @@ where
                 u.j = (1.0 + dt * c.trace()) * old.j;
             }
         }
-        let fault = check(spec, self.kernel, &material, &u, dt);
+        let fault = check(spec, range, &material, &u, dt);
         // The same expression as `ExplicitSolver::stable_dt` evaluates on the committed state.
         let signal = match (self.signal_speed, material.as_ref()) {
             (false, _) => 0.0,
@@ -536,27 +540,31 @@ fn soften<const D: usize>(spec: &GridSpec<D>, sw: &SoftWalls, x: &Vector<D>, v: 
 }
 
 /// Guard checks on one particle's new state (DESIGN §6).
+#[inline(always)]
 fn check<const D: usize>(
     spec: &GridSpec<D>,
-    kernel: Kernel,
+    range: &StencilRange<D>,
     material: &Material,
     u: &Update<D>,
     dt: Real,
 ) -> Option<(Violation, Real)> {
-    let finite = |m: &[Real]| m.iter().all(|c| c.is_finite());
-    if !finite(u.v.as_slice()) {
-        return Some((Violation::NonFinite("velocity"), u.v.norm()));
-    }
-    if !finite(u.x.as_slice()) {
-        return Some((Violation::NonFinite("position"), u.x.norm()));
-    }
-    if !finite(u.f.as_slice()) || !u.j.is_finite() {
+    // `c · 0` is ±0 for finite `c` and NaN otherwise, so the sum is zero exactly when every
+    // value is finite: one test in the common case, the itemised tests only when it fails.
+    let probe = |m: &[Real]| m.iter().fold(0.0, |sum, c| sum + c * 0.0);
+    if probe(u.v.as_slice()) + probe(u.x.as_slice()) + probe(u.f.as_slice()) + u.j * 0.0 != 0.0 {
+        let finite = |m: &[Real]| m.iter().all(|c| c.is_finite());
+        if !finite(u.v.as_slice()) {
+            return Some((Violation::NonFinite("velocity"), u.v.norm()));
+        }
+        if !finite(u.x.as_slice()) {
+            return Some((Violation::NonFinite("position"), u.x.norm()));
+        }
         return Some((Violation::NonFinite("deformation"), u.j));
     }
     if u.j <= 0.0 && !material.defined_for_inverted() {
         return Some((Violation::InvertedElement, u.j));
     }
-    if !spec.contains_stencil(kernel, &u.x) {
+    if !range.contains(spec, &u.x) {
         return Some((Violation::LeftDomain, u.x.norm()));
     }
     let speed = u.v.norm();
@@ -623,5 +631,62 @@ pub(crate) fn commit_extra<const D: usize>(
             }
             particles.volume0[p] = particles.mass[p] / rho;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
+
+    /// The guard check names the first bad quantity in the order velocity, position,
+    /// deformation, inversion, domain, CFL, and passes a good state.
+    #[test]
+    fn guard_check_names_the_first_bad_quantity() {
+        let spec = GridSpec::<3>::new(Vector::<3>::zeros(), 0.1, [20, 20, 20]);
+        let range = spec.stencil_range(Kernel::Quadratic);
+        let solid = Material::Solid(SolidMaterial {
+            density: 1000.0,
+            elastic: ElasticModel::NeoHookean(Lame {
+                mu: 1e4,
+                lambda: 2e4,
+            }),
+            plasticity: Default::default(),
+        });
+        let good = Update::<3> {
+            x: Vector::<3>::new(1.0, 0.9, 1.1),
+            v: Vector::<3>::new(0.5, -0.25, 0.0),
+            c: Matrix::<3>::zeros(),
+            f: Matrix::<3>::identity() * 1.01,
+            j: 1.01f64.powi(3),
+            plastic: PlasticState::default(),
+        };
+        let dt = 1e-3;
+        let check = |u: &Update<3>| check(&spec, &range, &solid, u, dt);
+        assert_eq!(check(&good), None);
+        let mut u = good;
+        u.f[(2, 1)] = Real::NAN;
+        assert_eq!(check(&u), Some((Violation::NonFinite("deformation"), u.j)));
+        u.x[1] = Real::INFINITY;
+        assert_eq!(
+            check(&u),
+            Some((Violation::NonFinite("position"), Real::INFINITY))
+        );
+        u.v[2] = Real::NEG_INFINITY;
+        assert_eq!(
+            check(&u),
+            Some((Violation::NonFinite("velocity"), Real::INFINITY))
+        );
+        let mut u = good;
+        u.j = Real::NAN;
+        assert!(matches!(check(&u), Some((Violation::NonFinite("deformation"), j)) if j.is_nan()));
+        u.j = -0.5;
+        assert_eq!(check(&u), Some((Violation::InvertedElement, -0.5)));
+        let mut u = good;
+        u.x[0] = 0.02;
+        assert_eq!(check(&u), Some((Violation::LeftDomain, u.x.norm())));
+        let mut u = good;
+        u.v[0] = 150.0;
+        assert_eq!(check(&u), Some((Violation::CflExceeded, u.v.norm())));
     }
 }
