@@ -364,32 +364,41 @@ impl<const D: usize, const S: usize> AxisStencil<D, S> {
         st
     }
 
-    /// Calls `f(offsets, weight, d)` for each row of the stencil along axis 0, in the order of
-    /// [`Stencil::for_each`]: `offsets` holds the node offsets of axes `1..D` (entry 0 is 0),
-    /// `weight` the product of their weights, and `d` their components of `x_i − x_p` (m;
-    /// component 0 is 0). The caller walks the `S` nodes of the row with `w[0]` and `d[0]`.
+    /// Calls `f(start, weight, d)` for each row of the stencil along axis 0, in the order of
+    /// [`Stencil::for_each`], for a buffer that holds node `base + o` at index
+    /// `first + Σ_a o_a stride[a]`: `start` is the index of the row's first node, `weight` the
+    /// product of the weights of axes `1..D`, and `d` their components of `x_i − x_p` (m;
+    /// component 0 is 0). The caller walks the `S` nodes of the row, at `start + i stride[0]`,
+    /// with `w[0]` and `d[0]`. The indices are formed by additions as the walk goes.
     #[inline(always)]
-    pub fn for_each_row(&self, mut f: impl FnMut(&[usize; D], Real, &Vector<D>)) {
-        let mut o = [0usize; D];
+    pub fn for_each_row(
+        &self,
+        first: usize,
+        stride: &[usize; D],
+        mut f: impl FnMut(usize, Real, &Vector<D>),
+    ) {
         let mut d = Vector::<D>::zeros();
         match D {
-            1 => f(&o, 1.0, &d),
+            1 => f(first, 1.0, &d),
             2 => {
+                let mut start = first;
                 for j in 0..S {
-                    o[1] = j;
                     d[1] = self.d[1][j];
-                    f(&o, self.w[1][j], &d);
+                    f(start, self.w[1][j], &d);
+                    start += stride[1];
                 }
             }
             _ => {
+                let mut plane = first;
                 for k in 0..S {
-                    o[D - 1] = k;
                     d[D - 1] = self.d[D - 1][k];
+                    let mut start = plane;
                     for j in 0..S {
-                        o[1] = j;
                         d[1] = self.d[1][j];
-                        f(&o, self.w[1][j] * self.w[D - 1][k], &d);
+                        f(start, self.w[1][j] * self.w[D - 1][k], &d);
+                        start += stride[1];
                     }
+                    plane += stride[D - 1];
                 }
             }
         }
@@ -469,15 +478,19 @@ mod tests {
             let mut nodes = Vec::new();
             Stencil::new(kernel, &spec, &x).for_each(|node, w, _| nodes.push((node, w)));
             let st = AxisStencil::<D, S>::new(kernel, &spec, &x);
+            // Index the nodes as a buffer of (S + 1)^D nodes from `base − 1` would.
+            let width = S + 1;
+            let stride: [usize; D] = std::array::from_fn(|a| width.pow(a as u32));
+            let first: usize = stride.iter().sum();
             let mut k = 0;
-            st.for_each_row(|o, wr, dr| {
+            st.for_each_row(first, &stride, |start, wr, dr| {
                 for i in 0..S {
                     let (node, w) = nodes[k];
                     k += 1;
-                    assert_eq!(node[0], st.base[0] + i as i64);
-                    for a in 1..D {
-                        assert_eq!(node[a], st.base[a] + o[a] as i64);
-                    }
+                    let index: usize = (0..D)
+                        .map(|a| (node[a] - st.base[a] + 1) as usize * stride[a])
+                        .sum();
+                    assert_eq!(index, start + i);
                     assert_relative_eq!(st.w[0][i] * wr, w, max_relative = 1e-14);
                     let d = spec.node_position(&node) - x;
                     assert_eq!(d[0], st.d[0][i]);

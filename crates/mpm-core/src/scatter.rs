@@ -272,6 +272,13 @@ impl<const D: usize> BlockWindow<D> {
         self.width == 0
     }
 
+    /// Index steps of the block's buffers along each axis: node `n` is at
+    /// `Σ_a (n_a − origin_a) strides[a]` ([`Self::local`]).
+    #[inline]
+    pub fn strides(&self) -> [usize; D] {
+        std::array::from_fn(|a| self.width.pow(a as u32))
+    }
+
     /// Index into the block's buffers of grid node `node`, which must lie in the window (every
     /// node of the stencil of a particle binned in this block does).
     #[inline]

@@ -22,7 +22,7 @@ where
 }
 
 /// Kirchhoff stress τ = J σ (Pa) of particle `p` behaving as `material`.
-#[inline]
+#[inline(always)]
 pub(crate) fn stress<const D: usize>(
     particles: &Particles<D>,
     material: &Material,
@@ -146,12 +146,8 @@ where
                 let im = self.impulse(p);
                 let q = im.affine + im.stress * minv;
                 let st = AxisStencil::<D, S>::new(self.kernel, self.spec, &self.particles.x[p]);
-                st.for_each_row(|o, wr, dr| {
-                    let mut node = st.base;
-                    for a in 1..D {
-                        node[a] += o[a] as i64;
-                    }
-                    let k0 = window.local(&node);
+                let first = window.local(&st.base);
+                st.for_each_row(first, &window.strides(), |k0, wr, dr| {
                     let row = im.mv_forced + q * dr;
                     let (mass, momentum) = (&mut mass[k0..k0 + S], &mut momentum[k0..k0 + S]);
                     for i in 0..S {
