@@ -337,15 +337,16 @@ pub struct AxisStencil<const D: usize, const S: usize> {
 
 impl<const D: usize, const S: usize> AxisStencil<D, S> {
     /// Builds the stencil of `kernel`, which must have `S` nodes per axis, on grid `spec` at
-    /// position `x` (m), in 1 to 3 dimensions.
+    /// position `x` (m), in 1 to 3 dimensions. `inv_dx` is `1 / spec.dx` (1/m), which the
+    /// transfers compute once rather than once per particle.
     ///
     /// # Panics
-    /// In debug builds, when `kernel.support() != S` or `D > 3`.
+    /// In debug builds, when `kernel.support() != S`, `D > 3` or `inv_dx != 1 / spec.dx`.
     #[inline]
-    pub fn new(kernel: Kernel, spec: &GridSpec<D>, x: &Vector<D>) -> Self {
+    pub fn new(kernel: Kernel, spec: &GridSpec<D>, inv_dx: Real, x: &Vector<D>) -> Self {
         debug_assert_eq!(kernel.support(), S);
         debug_assert!(D <= 3);
-        let inv_dx = 1.0 / spec.dx;
+        debug_assert_eq!(inv_dx, 1.0 / spec.dx);
         let mut st = Self {
             base: [0; D],
             w: [[0.0; S]; D],
@@ -477,7 +478,7 @@ mod tests {
         for x in positions::<D>() {
             let mut nodes = Vec::new();
             Stencil::new(kernel, &spec, &x).for_each(|node, w, _| nodes.push((node, w)));
-            let st = AxisStencil::<D, S>::new(kernel, &spec, &x);
+            let st = AxisStencil::<D, S>::new(kernel, &spec, 1.0 / spec.dx, &x);
             // Index the nodes as a buffer of (S + 1)^D nodes from `base − 1` would.
             let width = S + 1;
             let stride: [usize; D] = std::array::from_fn(|a| width.pow(a as u32));

@@ -241,6 +241,15 @@ pub(crate) struct ExtraContext<'a> {
 /// the affine field C.
 type Gathered<const D: usize> = (Vector<D>, Vector<D>, Matrix<D>);
 
+/// What G2P derives from the grid once rather than per particle: the bounds a particle's
+/// stencil must stay within, `1/Δx` (1/m) and the MLS factor `M⁻¹` (1/m², `None` for the linear
+/// kernel; [`Kernel::mls_inertia_inv`]).
+struct Scale<const D: usize> {
+    range: StencilRange<D>,
+    inv_dx: Real,
+    minv: Option<Real>,
+}
+
 /// Where a particle gathers from: its block's window, its phase's grid and, with FLIP, the
 /// grid's velocities before the update (m/s).
 type Source<'a, const D: usize> = (
@@ -276,7 +285,11 @@ where
         }
         let mut moving = Moving::take(particles);
         let fixed: &Particles<D> = particles;
-        let range = self.spec.stencil_range(self.kernel);
+        let scale = Scale {
+            range: self.spec.stencil_range(self.kernel),
+            inv_dx: 1.0 / self.spec.dx,
+            minv: self.kernel.mls_inertia_inv(self.spec.dx),
+        };
         let (fault, signal) = moving
             .chunks(CHUNK)
             .into_par_iter()
@@ -288,7 +301,7 @@ where
                     let v0 = velocity_old.map(|v| v[k].as_slice());
                     let window = blocks[k].velocities(p);
                     let source = (window, &grids[k], v0);
-                    let (check, c) = self.particle(fixed, source, p, dt, &range, (&mut chunk, i));
+                    let (check, c) = self.particle(fixed, source, p, dt, &scale, (&mut chunk, i));
                     signal = nan_max(signal, c);
                     if fault.is_none() {
                         fault = check.map(|(violation, value)| (p, violation, value));
@@ -311,10 +324,10 @@ where
         &self,
         win: &Window<'_, D>,
         flip: bool,
-        minv: Real,
+        (inv_dx, minv): (Real, Real),
         xp: &Vector<D>,
     ) -> Option<Gathered<D>> {
-        let st = AxisStencil::<D, S>::new(self.kernel, self.spec, xp);
+        let st = AxisStencil::<D, S>::new(self.kernel, self.spec, inv_dx, xp);
         let (origin, width) = (win.window.origin(), win.window.width());
         let mut stride = [0usize; D];
         let mut first = 0usize;
@@ -362,10 +375,10 @@ where
         &self,
         grid: &GridNodes<D>,
         velocity_old: Option<&[Vector<D>]>,
+        minv: Option<Real>,
         xp: &Vector<D>,
     ) -> Gathered<D> {
         let spec = self.spec;
-        let minv = self.kernel.mls_inertia_inv(spec.dx);
         let (mut v_pic, mut dv, mut c) = (
             Vector::<D>::zeros(),
             Vector::<D>::zeros(),
@@ -386,17 +399,25 @@ where
         (v_pic, dv, c)
     }
 
-    fn gather(&self, (window, grid, velocity_old): Source<'_, D>, xp: &Vector<D>) -> Gathered<D> {
+    fn gather(
+        &self,
+        (window, grid, velocity_old): Source<'_, D>,
+        scale: &Scale<D>,
+        xp: &Vector<D>,
+    ) -> Gathered<D> {
         let flip = velocity_old.is_some();
-        let rows = match (window, self.kernel.mls_inertia_inv(self.spec.dx)) {
-            (Some(win), Some(minv)) => match self.kernel {
-                Kernel::Quadratic => self.gather_rows::<3>(&win, flip, minv, xp),
-                Kernel::Cubic => self.gather_rows::<4>(&win, flip, minv, xp),
-                Kernel::Linear => None,
-            },
+        let rows = match (window, scale.minv) {
+            (Some(win), Some(minv)) => {
+                let s = (scale.inv_dx, minv);
+                match self.kernel {
+                    Kernel::Quadratic => self.gather_rows::<3>(&win, flip, s, xp),
+                    Kernel::Cubic => self.gather_rows::<4>(&win, flip, s, xp),
+                    Kernel::Linear => None,
+                }
+            }
             _ => None,
         };
-        rows.unwrap_or_else(|| self.gather_nodes(grid, velocity_old, xp))
+        rows.unwrap_or_else(|| self.gather_nodes(grid, velocity_old, scale.minv, xp))
     }
 
     /// Advances particle `p`, entry `i` of `chunk`, in place: its new state is written to the
@@ -409,13 +430,13 @@ where
         source: Source<'_, D>,
         p: usize,
         dt: Real,
-        range: &StencilRange<D>,
+        scale: &Scale<D>,
         (chunk, i): (&mut Chunk<'_, D>, usize),
     ) -> (Option<(Violation, Real)>, Real) {
         let old = chunk.old(i);
         let spec = self.spec;
         let xp = old.x;
-        let (v_pic, dv, c) = self.gather(source, &xp);
+        let (v_pic, dv, c) = self.gather(source, scale, &xp);
         let mut v = match self.transfer {
             Transfer::Flip { blend } => (old.v + dv) * blend + v_pic * (1.0 - blend),
             Transfer::Apic | Transfer::Pic => v_pic,
@@ -446,7 +467,7 @@ where
                 u.j = (1.0 + dt * c.trace()) * old.j;
             }
         }
-        let fault = check(spec, range, &material, &u, dt);
+        let fault = check(spec, &scale.range, &material, &u, dt);
         // The same expression as `ExplicitSolver::stable_dt` evaluates on the committed state.
         let signal = match (self.signal_speed, material.as_ref()) {
             (false, _) => 0.0,

@@ -139,13 +139,15 @@ where
     /// nodes are consecutive in the block buffer.
     fn p2g_rows<const S: usize>(&self, blocks: &mut Blocks<D>, out: Sums<'_, D>, minv: Real) {
         let with0 = out.momentum0.is_some();
+        let inv_dx = 1.0 / self.spec.dx;
         blocks.scatter(
             self.layout,
             out,
             |p, window, (mass, momentum, momentum0, _)| {
                 let im = self.impulse(p);
                 let q = im.affine + im.stress * minv;
-                let st = AxisStencil::<D, S>::new(self.kernel, self.spec, &self.particles.x[p]);
+                let x = &self.particles.x[p];
+                let st = AxisStencil::<D, S>::new(self.kernel, self.spec, inv_dx, x);
                 let first = window.local(&st.base);
                 st.for_each_row(first, &window.strides(), |k0, wr, dr| {
                     let row = im.mv_forced + q * dr;
