@@ -105,15 +105,50 @@ fn check_finite<const D: usize>(
     layout: &NodeLayout<D>,
     velocity: &[Vector<D>],
 ) -> Result<(), (Location, Violation, Real)> {
-    match velocity
-        .par_iter()
-        .position_first(|v| !v.iter().all(|c| c.is_finite()))
-    {
+    // Chunks scanned in parallel and the lowest failing index kept: the same node as a
+    // `position_first` over the nodes, without its per-node bookkeeping (an atomic load and
+    // copies of the folder's state per node, ~5 % of a 2D step).
+    const CHUNK: usize = 4096;
+    let first_bad = velocity
+        .par_chunks(CHUNK)
+        .enumerate()
+        .filter_map(|(c, chunk)| {
+            let bad = chunk.iter().position(|v| !v.iter().all(|c| c.is_finite()));
+            bad.map(|j| c * CHUNK + j)
+        })
+        .min();
+    match first_bad {
         Some(i) => Err((
             Location::Node(spec.linear_index(&layout.node(i)).unwrap_or(usize::MAX)),
             Violation::NonFinite("grid velocity"),
             velocity[i].norm(),
         )),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The check names the lowest stored node with a non-finite velocity, wherever the bad
+    /// nodes fall among the scan's chunks, and passes a finite grid.
+    #[test]
+    fn check_finite_names_the_first_bad_node() {
+        let spec = GridSpec::<2>::new(Vector::<2>::zeros(), 0.1, [100, 100]);
+        let layout = NodeLayout::dense(&spec);
+        let good = vec![Vector::<2>::new(1.0, -2.0); layout.len()];
+        assert!(check_finite(&spec, &layout, &good).is_ok());
+        for bad in [[9000, 4096, 4095], [0, 12000, 3], [8191, 8192, 9999]] {
+            let mut v = good.clone();
+            v[bad[0]].x = Real::NAN;
+            v[bad[1]].y = Real::INFINITY;
+            v[bad[2]].x = Real::NEG_INFINITY;
+            let first = *bad.iter().min().unwrap();
+            let (location, violation, _) = check_finite(&spec, &layout, &v).unwrap_err();
+            let node = spec.linear_index(&layout.node(first)).unwrap();
+            assert_eq!(location, Location::Node(node));
+            assert_eq!(violation, Violation::NonFinite("grid velocity"));
+        }
     }
 }
