@@ -427,11 +427,17 @@ impl<const D: usize> Blocks<D> {
                             id += (base / b).min(dims[a] - 1) * stride;
                             stride *= dims[a];
                         }
-                        counts[id] += 1;
                         id as u32
                     } else {
                         u32::MAX
                     };
+                }
+                // Counted by runs of equal blocks (consecutive particles mostly share one):
+                // one addition per run instead of a chain of increments of the same counter.
+                for same in ids.chunk_by(|a, b| a == b) {
+                    if same[0] != u32::MAX {
+                        counts[same[0] as usize] += same.len() as u32;
+                    }
                 }
             });
         // Serial over the blocks: the non-empty ones become ranges; each run's count becomes
@@ -472,15 +478,22 @@ impl<const D: usize> Blocks<D> {
             .zip(slices.into_par_iter())
             .enumerate()
             .for_each(|(c, ((ids, cursor), mut slices))| {
-                for (i, id) in ids.iter_mut().enumerate() {
-                    if *id == u32::MAX {
-                        continue;
+                // By runs of equal blocks again: each run is copied into its block's slice at
+                // the cursor, which then moves past it.
+                let mut p = c * run_len;
+                for same in ids.chunk_by_mut(|a, b| a == b) {
+                    let (id, len) = (same[0], same.len());
+                    if id != u32::MAX {
+                        let r = rank[id as usize];
+                        let k = cursor[id as usize] as usize;
+                        let to = &mut slices[r as usize][k..k + len];
+                        for (slot, q) in to.iter_mut().zip(p..) {
+                            *slot = q as u32;
+                        }
+                        cursor[id as usize] += len as u32;
+                        same.fill(r);
                     }
-                    let r = rank[*id as usize];
-                    let k = &mut cursor[*id as usize];
-                    slices[r as usize][*k as usize] = (c * run_len + i) as u32;
-                    *k += 1;
-                    *id = r;
+                    p += len;
                 }
             });
         self.origins.clear();
