@@ -318,12 +318,11 @@ where
     }
 
     /// The PIC velocity, FLIP increment and C of a particle at `xp`, by rows of the stencil read
-    /// from its block's window (`flip`: with the FLIP increment). `None` when the stencil
-    /// leaves the window.
-    fn gather_rows<const S: usize>(
+    /// from its block's window (`FLIP`: with the FLIP increment, zero otherwise). `None` when
+    /// the stencil leaves the window.
+    fn gather_rows<const S: usize, const FLIP: bool>(
         &self,
         win: &Window<'_, D>,
-        flip: bool,
         (inv_dx, minv): (Real, Real),
         xp: &Vector<D>,
     ) -> Option<Gathered<D>> {
@@ -354,7 +353,7 @@ where
                 let wv = row[i] * w;
                 sum += wv;
                 col0 += wv * st.d[0][i];
-                if flip {
+                if FLIP {
                     dv += (row[i] - win.old[i0 + i]) * w;
                 }
             }
@@ -409,10 +408,12 @@ where
         let rows = match (window, scale.minv) {
             (Some(win), Some(minv)) => {
                 let s = (scale.inv_dx, minv);
-                match self.kernel {
-                    Kernel::Quadratic => self.gather_rows::<3>(&win, flip, s, xp),
-                    Kernel::Cubic => self.gather_rows::<4>(&win, flip, s, xp),
-                    Kernel::Linear => None,
+                match (self.kernel, flip) {
+                    (Kernel::Quadratic, false) => self.gather_rows::<3, false>(&win, s, xp),
+                    (Kernel::Quadratic, true) => self.gather_rows::<3, true>(&win, s, xp),
+                    (Kernel::Cubic, false) => self.gather_rows::<4, false>(&win, s, xp),
+                    (Kernel::Cubic, true) => self.gather_rows::<4, true>(&win, s, xp),
+                    (Kernel::Linear, _) => None,
                 }
             }
             _ => None,

@@ -126,9 +126,16 @@ where
             momentum0,
             extra: None,
         };
-        match (self.kernel, self.kernel.mls_inertia_inv(self.spec.dx)) {
-            (Kernel::Quadratic, Some(minv)) => self.p2g_rows::<3>(blocks, out, minv),
-            (Kernel::Cubic, Some(minv)) => self.p2g_rows::<4>(blocks, out, minv),
+        let with0 = out.momentum0.is_some();
+        match (
+            self.kernel,
+            self.kernel.mls_inertia_inv(self.spec.dx),
+            with0,
+        ) {
+            (Kernel::Quadratic, Some(minv), false) => self.p2g_rows::<3, false>(blocks, out, minv),
+            (Kernel::Quadratic, Some(minv), true) => self.p2g_rows::<3, true>(blocks, out, minv),
+            (Kernel::Cubic, Some(minv), false) => self.p2g_rows::<4, false>(blocks, out, minv),
+            (Kernel::Cubic, Some(minv), true) => self.p2g_rows::<4, true>(blocks, out, minv),
             _ => self.p2g_nodes(blocks, out),
         }
     }
@@ -136,9 +143,15 @@ where
     /// P2G for the quadratic and cubic kernels: with `g = w M⁻¹ d` the stress and affine terms
     /// fuse into one matrix `Q = m C − Δt V⁰ M⁻¹ τ` (multigrid paper Eq. 7), and each node
     /// receives `w (m v + Q d)`; the stencil is walked by rows along the first axis, whose
-    /// nodes are consecutive in the block buffer.
-    fn p2g_rows<const S: usize>(&self, blocks: &mut Blocks<D>, out: Sums<'_, D>, minv: Real) {
-        let with0 = out.momentum0.is_some();
+    /// nodes are consecutive in the block buffer. `WITH0`: `out` has the forceless momentum
+    /// channel (FLIP, damping).
+    fn p2g_rows<const S: usize, const WITH0: bool>(
+        &self,
+        blocks: &mut Blocks<D>,
+        out: Sums<'_, D>,
+        minv: Real,
+    ) {
+        debug_assert_eq!(out.momentum0.is_some(), WITH0);
         let inv_dx = 1.0 / self.spec.dx;
         blocks.scatter(
             self.layout,
@@ -157,7 +170,7 @@ where
                         mass[i] += w * im.m;
                         momentum[i] += (row + q.column(0) * d0) * w;
                     }
-                    if with0 {
+                    if WITH0 {
                         let row0 = im.mv + im.affine * dr;
                         for i in 0..S {
                             let (w, d0) = (st.w[0][i] * wr, st.d[0][i]);
