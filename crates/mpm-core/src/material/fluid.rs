@@ -32,13 +32,13 @@ impl FluidMaterial {
             return Real::INFINITY;
         }
         let (k, g) = (self.eos.bulk_modulus, self.eos.gamma);
-        (k / g) * (j.powf(-g) - 1.0)
+        (k / g) * (power(j, -g) - 1.0)
     }
 
     /// Stored energy per reference volume ψ(J) = −∫₁ᴶ p dJ' (J/m^D), so that p = −dψ/dJ.
     pub fn energy_density(&self, j: Real) -> Real {
         let (k, g) = (self.eos.bulk_modulus, self.eos.gamma);
-        (k / g) * ((j.powf(1.0 - g) - 1.0) / (g - 1.0) + j - 1.0)
+        (k / g) * ((power(j, 1.0 - g) - 1.0) / (g - 1.0) + j - 1.0)
     }
 
     /// Sound speed `c = √(dp/dρ)` (m/s) at volume ratio `j`. With `ρ = ρ₀/J`,
@@ -49,7 +49,7 @@ impl FluidMaterial {
             return Real::INFINITY;
         }
         let (k, g) = (self.eos.bulk_modulus, self.eos.gamma);
-        (k * j.powf(1.0 - g) / self.density).sqrt()
+        (k * power(j, 1.0 - g) / self.density).sqrt()
     }
 
     /// Kirchhoff stress `τ = J σ` with `σ = −p I + μ (∇v + ∇vᵀ)` (Pa), given J and the velocity
@@ -57,6 +57,34 @@ impl FluidMaterial {
     pub fn kirchhoff<const D: usize>(&self, j: Real, grad_v: &Matrix<D>) -> Matrix<D> {
         let viscous = (grad_v + grad_v.transpose()) * self.viscosity;
         (viscous - Matrix::<D>::identity() * self.pressure(j)) * j
+    }
+}
+
+/// `j^e` for a volume ratio `j` (dimensionless). An integer exponent of magnitude at most 64
+/// (γ = 7 gives −7 and −6) is formed by squaring and multiplying in a fixed order, a negative
+/// one as the reciprocal of the positive power: within a few ulp of `powf` (one ulp is
+/// 2.2e-16 relative), the same bits on every machine, and several times cheaper than the
+/// library's `pow`, which was about 6 % of a 2D explicit step with fluid. Any other exponent
+/// takes `powf`.
+#[inline]
+fn power(j: Real, e: Real) -> Real {
+    if e.fract() != 0.0 || e.abs() > 64.0 {
+        return j.powf(e);
+    }
+    let (mut n, mut base, mut acc) = (e.abs() as u32, j, 1.0);
+    while n > 0 {
+        if n & 1 == 1 {
+            acc *= base;
+        }
+        n >>= 1;
+        if n > 0 {
+            base *= base;
+        }
+    }
+    if e < 0.0 {
+        1.0 / acc
+    } else {
+        acc
     }
 }
 
@@ -91,6 +119,28 @@ mod tests {
             assert!((dpsi + w.pressure(j)).abs() <= 1e-6 * w.eos.bulk_modulus);
         }
         assert!(!w.pressure(0.0).is_finite() && !w.pressure(-0.5).is_finite());
+    }
+
+    /// Integer powers by multiplication agree with `powf` to a few ulp over volume ratios from
+    /// strong compression to strong expansion; zero and fractional exponents are exact or
+    /// `powf` itself.
+    #[test]
+    fn integer_powers_match_powf() {
+        let mut worst: Real = 0.0;
+        for k in 0..=2000 {
+            let j = 0.05 + 3.0 * k as Real / 2000.0;
+            for e in [-7.0, -6.0, -1.0, 1.0, 2.0, 3.0, 6.0, 7.0, 15.0, -15.0] {
+                let exact = j.powf(e);
+                worst = worst.max(((power(j, e) - exact) / exact).abs());
+            }
+            assert_eq!(power(j, 0.0), 1.0);
+            assert_eq!(power(j, -1.4).to_bits(), j.powf(-1.4).to_bits());
+            assert_eq!(power(j, 70.0).to_bits(), j.powf(70.0).to_bits());
+        }
+        assert!(worst > 0.0 && worst < 8.0 * Real::EPSILON, "{worst:e}");
+        // A collapsed and a NaN volume ratio give what `powf` gives.
+        assert_eq!(power(0.0, -7.0), Real::INFINITY);
+        assert!(power(Real::NAN, -7.0).is_nan());
     }
 
     #[test]
