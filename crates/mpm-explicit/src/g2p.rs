@@ -328,18 +328,14 @@ where
     ) -> Option<Gathered<D>> {
         let st = AxisStencil::<D, S>::new(self.kernel, self.spec, inv_dx, xp);
         let (origin, width) = (win.window.origin(), win.window.width());
-        let mut stride = [0usize; D];
-        let mut first = 0usize;
-        let mut s = 1usize;
-        for a in 0..D {
+        let outside = |a: usize| {
             let b = st.base[a] - origin[a];
-            if b < 0 || b as usize + S > width {
-                return None;
-            }
-            stride[a] = s;
-            first += b as usize * s;
-            s *= width;
+            b < 0 || b as usize + S > width
+        };
+        if (0..D).any(outside) {
+            return None;
         }
+        let (first, stride) = (win.window.local(&st.base), win.window.strides());
         let (mut v, mut dv, mut b) = (
             Vector::<D>::zeros(),
             Vector::<D>::zeros(),
