@@ -157,10 +157,13 @@ where
             self.layout,
             out,
             |p, window, (mass, momentum, momentum0, _)| {
-                let im = self.impulse(p);
-                let q = im.affine + im.stress * minv;
+                // The stencil first: its chain (floor, weights) then runs while the impulse's
+                // (stress, logarithm) is computed; in the other order the processor reaches the
+                // stencil only after the stress (P2G 3-10 % longer in 2D, 2-3 % in 3D).
                 let x = &self.particles.x[p];
                 let st = AxisStencil::<D, S>::new(self.kernel, self.spec, inv_dx, x);
+                let im = self.impulse(p);
+                let q = im.affine + im.stress * minv;
                 let first = window.local(&st.base);
                 st.for_each_row(first, &window.strides(), |k0, wr, dr| {
                     let row = im.mv_forced + q * dr;
