@@ -250,12 +250,23 @@ struct Scale<const D: usize> {
     minv: Option<Real>,
 }
 
-/// Where a particle gathers from: its block's window, its phase's grid and, with FLIP, the
-/// grid's velocities before the update (m/s).
-type Source<'a, const D: usize> = (
+/// Where a particle gathers from: its block's window, its phase's grid, with FLIP the grid's
+/// velocities before the update (m/s), and its stencil for the row gather (`S` nodes per
+/// axis; `None` for the linear kernel).
+type Source<'a, const D: usize, const S: usize> = (
     Option<Window<'a, D>>,
     &'a GridNodes<D>,
     Option<&'a [Vector<D>]>,
+    Option<&'a AxisStencil<D, S>>,
+);
+
+/// What every G2P chunk reads: the particles' fixed columns, and per phase the binning with
+/// its velocity windows, the grid and, with FLIP, the velocities before the update (m/s).
+type Inputs<'a, const D: usize> = (
+    &'a Particles<D>,
+    &'a [Blocks<D>],
+    &'a [GridNodes<D>],
+    Option<&'a [Vec<Vector<D>>]>,
 );
 
 impl<const D: usize> G2pContext<'_, D>
@@ -294,20 +305,12 @@ where
             .chunks(CHUNK)
             .into_par_iter()
             .map(|mut chunk| {
-                let (mut fault, mut signal) = (None, 0.0);
-                for i in 0..chunk.x.len() {
-                    let p = chunk.start + i;
-                    let k = fixed.phase_of(p) as usize;
-                    let v0 = velocity_old.map(|v| v[k].as_slice());
-                    let window = blocks[k].velocities(p);
-                    let source = (window, &grids[k], v0);
-                    let (check, c) = self.particle(fixed, source, p, dt, &scale, (&mut chunk, i));
-                    signal = nan_max(signal, c);
-                    if fault.is_none() {
-                        fault = check.map(|(violation, value)| (p, violation, value));
-                    }
+                let run = (fixed, blocks, grids, velocity_old);
+                match (self.kernel, scale.minv) {
+                    (Kernel::Quadratic, Some(_)) => self.run::<3>(run, &mut chunk, dt, &scale),
+                    (Kernel::Cubic, Some(_)) => self.run::<4>(run, &mut chunk, dt, &scale),
+                    _ => self.run::<0>(run, &mut chunk, dt, &scale),
                 }
-                (fault, signal)
             })
             .reduce(|| (None, 0.0), |a, b| (first(a.0, b.0), nan_max(a.1, b.1)));
         moving.put_back(particles);
@@ -317,16 +320,58 @@ where
         }
     }
 
+    /// Advances the particles of `chunk` in order (see [`Self::advance`]); returns the first
+    /// fault and the largest signal speed. With `S > 0` (quadratic, cubic) each particle's
+    /// stencil of `S` nodes per axis is built while the particle before it is advanced, so
+    /// the stencil's latency chain (floor, weights) overlaps that particle's gather and
+    /// update instead of delaying its own gather; with `S = 0` (linear) there is none.
+    fn run<const S: usize>(
+        &self,
+        (fixed, blocks, grids, velocity_old): Inputs<'_, D>,
+        chunk: &mut Chunk<'_, D>,
+        dt: Real,
+        scale: &Scale<D>,
+    ) -> (Option<(usize, Violation, Real)>, Real) {
+        let (mut fault, mut signal) = (None, 0.0);
+        let n = chunk.x.len();
+        let stencil =
+            |x: &Vector<D>| AxisStencil::<D, S>::new(self.kernel, self.spec, scale.inv_dx, x);
+        let mut ahead = [AxisStencil {
+            base: [0; D],
+            w: [[0.0; S]; D],
+            d: [[0.0; S]; D],
+        }; 2];
+        if S > 0 && n > 0 {
+            ahead[0] = stencil(&chunk.x[0]);
+        }
+        for i in 0..n {
+            if S > 0 && i + 1 < n {
+                ahead[(i + 1) % 2] = stencil(&chunk.x[i + 1]);
+            }
+            let st = (S > 0).then_some(&ahead[i % 2]);
+            let p = chunk.start + i;
+            let k = fixed.phase_of(p) as usize;
+            let v0 = velocity_old.map(|v| v[k].as_slice());
+            let window = blocks[k].velocities(p);
+            let source = (window, &grids[k], v0, st);
+            let (check, c) = self.particle(fixed, source, p, dt, scale, (chunk, i));
+            signal = nan_max(signal, c);
+            if fault.is_none() {
+                fault = check.map(|(violation, value)| (p, violation, value));
+            }
+        }
+        (fault, signal)
+    }
+
     /// The PIC velocity, FLIP increment and C of a particle at `xp`, by rows of the stencil read
     /// from its block's window (`FLIP`: with the FLIP increment, zero otherwise). `None` when
     /// the stencil leaves the window.
     fn gather_rows<const S: usize, const FLIP: bool>(
         &self,
         win: &Window<'_, D>,
-        (inv_dx, minv): (Real, Real),
-        xp: &Vector<D>,
+        minv: Real,
+        st: &AxisStencil<D, S>,
     ) -> Option<Gathered<D>> {
-        let st = AxisStencil::<D, S>::new(self.kernel, self.spec, inv_dx, xp);
         let (origin, width) = (win.window.origin(), win.window.width());
         let outside = |a: usize| {
             let b = st.base[a] - origin[a];
@@ -394,24 +439,17 @@ where
         (v_pic, dv, c)
     }
 
-    fn gather(
+    fn gather<const S: usize>(
         &self,
-        (window, grid, velocity_old): Source<'_, D>,
+        (window, grid, velocity_old, st): Source<'_, D, S>,
         scale: &Scale<D>,
         xp: &Vector<D>,
     ) -> Gathered<D> {
-        let flip = velocity_old.is_some();
-        let rows = match (window, scale.minv) {
-            (Some(win), Some(minv)) => {
-                let s = (scale.inv_dx, minv);
-                match (self.kernel, flip) {
-                    (Kernel::Quadratic, false) => self.gather_rows::<3, false>(&win, s, xp),
-                    (Kernel::Quadratic, true) => self.gather_rows::<3, true>(&win, s, xp),
-                    (Kernel::Cubic, false) => self.gather_rows::<4, false>(&win, s, xp),
-                    (Kernel::Cubic, true) => self.gather_rows::<4, true>(&win, s, xp),
-                    (Kernel::Linear, _) => None,
-                }
-            }
+        let rows = match (window, scale.minv, st) {
+            (Some(win), Some(minv), Some(st)) => match velocity_old {
+                None => self.gather_rows::<S, false>(&win, minv, st),
+                Some(_) => self.gather_rows::<S, true>(&win, minv, st),
+            },
             _ => None,
         };
         rows.unwrap_or_else(|| self.gather_nodes(grid, velocity_old, scale.minv, xp))
@@ -421,10 +459,10 @@ where
     /// chunk here rather than returned, so it goes from registers to its columns without a
     /// copy through the stack (a 192-byte `memcpy` per particle in 3D). Returns its guard
     /// check and its signal speed.
-    fn particle(
+    fn particle<const S: usize>(
         &self,
         particles: &Particles<D>,
-        source: Source<'_, D>,
+        source: Source<'_, D, S>,
         p: usize,
         dt: Real,
         scale: &Scale<D>,
