@@ -336,6 +336,13 @@ pub struct AxisStencil<const D: usize, const S: usize> {
 }
 
 impl<const D: usize, const S: usize> AxisStencil<D, S> {
+    /// The stencil with every field zero: a placeholder for storage that [`Self::new`] fills.
+    pub const ZERO: Self = Self {
+        base: [0; D],
+        w: [[0.0; S]; D],
+        d: [[0.0; S]; D],
+    };
+
     /// Builds the stencil of `kernel`, which must have `S` nodes per axis, on grid `spec` at
     /// position `x` (m), in 1 to 3 dimensions. `inv_dx` is `1 / spec.dx` (1/m), which the
     /// transfers compute once rather than once per particle.
@@ -347,11 +354,7 @@ impl<const D: usize, const S: usize> AxisStencil<D, S> {
         debug_assert_eq!(kernel.support(), S);
         debug_assert!(D <= 3);
         debug_assert_eq!(inv_dx, 1.0 / spec.dx);
-        let mut st = Self {
-            base: [0; D],
-            w: [[0.0; S]; D],
-            d: [[0.0; S]; D],
-        };
+        let mut st = Self::ZERO;
         for a in 0..D {
             let (b, node, _, w) = kernel.stencil_1d::<S>((x[a] - spec.origin[a]) * inv_dx);
             st.base[a] = node;

@@ -336,11 +336,7 @@ where
         let n = chunk.x.len();
         let stencil =
             |x: &Vector<D>| AxisStencil::<D, S>::new(self.kernel, self.spec, scale.inv_dx, x);
-        let mut ahead = [AxisStencil {
-            base: [0; D],
-            w: [[0.0; S]; D],
-            d: [[0.0; S]; D],
-        }; 2];
+        let mut ahead = [AxisStencil::<D, S>::ZERO; 2];
         if S > 0 && n > 0 {
             ahead[0] = stencil(&chunk.x[0]);
         }
