@@ -65,65 +65,15 @@ impl Kernel {
         floor_parts(xh - self.lower_margin()).1
     }
 
-    /// First node index and weights of the 1D stencil at grid-unit coordinate `xh`, for a kernel
-    /// of `S` nodes per axis: the weights of [`Kernel::weights_1d`] without the derivatives,
-    /// inlined into the hot transfers.
-    ///
-    /// # Panics
-    /// When `S != self.support()` (in debug builds; in release builds when `S` is too small).
-    #[inline(always)]
-    pub fn weights<const S: usize>(self, xh: Real) -> (i64, [Real; S]) {
-        let (_, base, _, w) = self.stencil_1d::<S>(xh);
-        (base, w)
-    }
-
     /// The first node (as a real and as an integer), `fx = xh − base` and the `S` weights at
-    /// grid-unit coordinate `xh`.
+    /// grid-unit coordinate `xh`. The kernel is read from `S` (its support), a constant, so the
+    /// hot transfers compile without a branch on the kernel.
     #[inline(always)]
     fn stencil_1d<const S: usize>(self, xh: Real) -> (Real, i64, Real, [Real; S]) {
         debug_assert_eq!(S, self.support());
-        let mut w = [0.0; S];
-        let (base, node) = match self {
-            Kernel::Linear => floor_parts(xh),
-            Kernel::Quadratic => floor_parts(xh - 0.5),
-            Kernel::Cubic => {
-                let (f, i) = floor_parts(xh);
-                let b = f - 1.0;
-                // `i − 1` is `b as i64` wherever `b` is an exact integer below 2⁵³.
-                (
-                    b,
-                    if b.abs() < 9007199254740992.0 {
-                        i - 1
-                    } else {
-                        b as i64
-                    },
-                )
-            }
-        };
+        let (base, node) = base_1d::<S>(xh);
         let fx = xh - base;
-        match self {
-            Kernel::Linear => {
-                w[0] = 1.0 - fx;
-                w[1] = fx;
-            }
-            Kernel::Quadratic => {
-                w[0] = 0.5 * (1.5 - fx) * (1.5 - fx);
-                w[1] = 0.75 - (fx - 1.0) * (fx - 1.0);
-                w[2] = 0.5 * (fx - 0.5) * (fx - 0.5);
-            }
-            Kernel::Cubic => {
-                for (k, wk) in w.iter_mut().enumerate() {
-                    let a = (fx - k as Real).abs();
-                    *wk = if a < 1.0 {
-                        0.5 * a * a * a - a * a + 2.0 / 3.0
-                    } else {
-                        let t = 2.0 - a;
-                        t * t * t / 6.0
-                    };
-                }
-            }
-        }
-        (base, node, fx, w)
+        (base, node, fx, weights_at::<S>(fx))
     }
 
     /// 1D stencil at grid-unit coordinate `xh`: first node index, weights, and derivatives of
@@ -201,6 +151,89 @@ fn floor_parts(v: Real) -> (Real, i64) {
         let f = v.floor();
         (f, f as i64)
     }
+}
+
+/// The first stencil node along one axis, as a real and as an integer, at grid-unit coordinate
+/// `xh` for the kernel of `S` nodes per axis (2 linear, 3 quadratic, 4 cubic).
+#[inline(always)]
+fn base_1d<const S: usize>(xh: Real) -> (Real, i64) {
+    match S {
+        2 => floor_parts(xh),
+        3 => floor_parts(xh - 0.5),
+        _ => {
+            let (f, i) = floor_parts(xh);
+            let b = f - 1.0;
+            // `i − 1` is `b as i64` wherever `b` is an exact integer below 2⁵³.
+            (
+                b,
+                if b.abs() < 9007199254740992.0 {
+                    i - 1
+                } else {
+                    b as i64
+                },
+            )
+        }
+    }
+}
+
+/// [`base_1d`] along all `D` axes at once. When every coordinate is below 2⁵¹ in magnitude (any
+/// particle in a grid), the axes take [`floor_parts`]' rounding path without its branches, so
+/// the compiler can run them side by side in vector registers: the same operations on each
+/// axis, hence the same values; otherwise each axis goes through [`base_1d`].
+#[inline(always)]
+fn bases<const D: usize, const S: usize>(xh: &[Real; D]) -> ([Real; D], [i64; D]) {
+    const ROUND: Real = 6755399441055744.0; // 1.5 · 2⁵², as in `floor_parts`
+    let v: [Real; D] = std::array::from_fn(|a| if S == 3 { xh[a] - 0.5 } else { xh[a] });
+    if !v
+        .iter()
+        .fold(true, |ok, v| ok & (v.abs() < 2251799813685248.0))
+    {
+        let both: [(Real, i64); D] = std::array::from_fn(|a| base_1d::<S>(xh[a]));
+        return (both.map(|b| b.0), both.map(|b| b.1));
+    }
+    let s = v.map(|v| v + ROUND);
+    let below: [bool; D] = std::array::from_fn(|a| s[a] - ROUND > v[a]);
+    let f: [Real; D] =
+        std::array::from_fn(|a| (s[a] - ROUND - if below[a] { 1.0 } else { 0.0 }).copysign(v[a]));
+    let i: [i64; D] = std::array::from_fn(|a| {
+        (s[a].to_bits() as i64 - ROUND.to_bits() as i64) - i64::from(below[a])
+    });
+    if S == 4 {
+        // The cubic stencil starts one node lower; below 2⁵¹ `i − 1` is exact.
+        (f.map(|f| f - 1.0), i.map(|i| i - 1))
+    } else {
+        (f, i)
+    }
+}
+
+/// The `S` weights `N(fx − o)` of the 1D stencil whose first node lies `fx` grid units below
+/// the particle (2 linear, 3 quadratic, 4 cubic B-spline).
+#[inline(always)]
+fn weights_at<const S: usize>(fx: Real) -> [Real; S] {
+    let mut w = [0.0; S];
+    match S {
+        2 => {
+            w[0] = 1.0 - fx;
+            w[1] = fx;
+        }
+        3 => {
+            w[0] = 0.5 * (1.5 - fx) * (1.5 - fx);
+            w[1] = 0.75 - (fx - 1.0) * (fx - 1.0);
+            w[2] = 0.5 * (fx - 0.5) * (fx - 0.5);
+        }
+        _ => {
+            for (k, wk) in w.iter_mut().enumerate() {
+                let a = (fx - k as Real).abs();
+                *wk = if a < 1.0 {
+                    0.5 * a * a * a - a * a + 2.0 / 3.0
+                } else {
+                    let t = 2.0 - a;
+                    t * t * t / 6.0
+                };
+            }
+        }
+    }
+    w
 }
 
 /// The weights and gradients of one particle's stencil in `D` dimensions.
@@ -349,23 +382,23 @@ impl<const D: usize, const S: usize> AxisStencil<D, S> {
     ///
     /// # Panics
     /// In debug builds, when `kernel.support() != S`, `D > 3` or `inv_dx != 1 / spec.dx`.
-    #[inline]
+    #[inline(always)]
     pub fn new(kernel: Kernel, spec: &GridSpec<D>, inv_dx: Real, x: &Vector<D>) -> Self {
         debug_assert_eq!(kernel.support(), S);
         debug_assert!(D <= 3);
         debug_assert_eq!(inv_dx, 1.0 / spec.dx);
-        let mut st = Self::ZERO;
-        for a in 0..D {
-            let (b, node, _, w) = kernel.stencil_1d::<S>((x[a] - spec.origin[a]) * inv_dx);
-            st.base[a] = node;
-            for o in 0..S {
-                st.w[a][o] = w[o];
-                // `b + o` is an integer below 2⁵³, exact in floating point: the node's index
-                // as a real, without an integer-to-float conversion per node.
-                st.d[a][o] = spec.origin[a] + (b + o as Real) * spec.dx - x[a];
-            }
+        let xh: [Real; D] = std::array::from_fn(|a| (x[a] - spec.origin[a]) * inv_dx);
+        let (b, base) = bases::<D, S>(&xh);
+        let fx: [Real; D] = std::array::from_fn(|a| xh[a] - b[a]);
+        Self {
+            base,
+            w: fx.map(weights_at::<S>),
+            // `b + o` is an integer below 2⁵³, exact in floating point: the node's index as a
+            // real, without an integer-to-float conversion per node.
+            d: std::array::from_fn(|a| {
+                std::array::from_fn(|o| spec.origin[a] + (b[a] + o as Real) * spec.dx - x[a])
+            }),
         }
-        st
     }
 
     /// Calls `f(start, weight, d)` for each row of the stencil along axis 0, in the order of
@@ -507,40 +540,44 @@ mod tests {
         }
     }
 
+    /// Values for the floor tests: signed zeros, ties of the rounding step, the ends of the
+    /// fast path (2⁵¹), huge and non-finite values.
+    const FLOOR_CASES: [Real; 29] = [
+        0.0,
+        -0.0,
+        0.5,
+        -0.5,
+        1.0,
+        -1.0,
+        2.999999,
+        -2.000001,
+        1e15 + 0.5,
+        -1e15 - 0.5,
+        4.6e18,
+        -4.6e18,
+        1e300,
+        Real::INFINITY,
+        Real::NEG_INFINITY,
+        Real::MIN_POSITIVE,
+        -1e-300,
+        // Ties of the rounding step, both parities, and the ends of the fast path (2⁵¹).
+        2.5,
+        3.5,
+        -2.5,
+        -3.5,
+        0.49999999999999994,
+        -0.49999999999999994,
+        2251799813685247.5,
+        -2251799813685247.5,
+        2251799813685248.0,
+        -2251799813685248.0,
+        4503599627370495.5,
+        -4503599627370495.5,
+    ];
+
     #[test]
     fn floor_matches_the_library_floor() {
-        for v in [
-            0.0,
-            -0.0,
-            0.5,
-            -0.5,
-            1.0,
-            -1.0,
-            2.999999,
-            -2.000001,
-            1e15 + 0.5,
-            -1e15 - 0.5,
-            4.6e18,
-            -4.6e18,
-            1e300,
-            Real::INFINITY,
-            Real::NEG_INFINITY,
-            Real::MIN_POSITIVE,
-            -1e-300,
-            // Ties of the rounding step, both parities, and the ends of the fast path (2⁵¹).
-            2.5,
-            3.5,
-            -2.5,
-            -3.5,
-            0.49999999999999994,
-            -0.49999999999999994,
-            2251799813685247.5,
-            -2251799813685247.5,
-            2251799813685248.0,
-            -2251799813685248.0,
-            4503599627370495.5,
-            -4503599627370495.5,
-        ] {
+        for v in FLOOR_CASES {
             assert_eq!(floor(v).to_bits(), v.floor().to_bits(), "{v}");
             assert_eq!(floor_parts(v).1, v.floor() as i64, "{v}");
         }
@@ -562,6 +599,52 @@ mod tests {
             }
             v *= 1.0009765625;
         }
+    }
+
+    /// `bases` (all axes at once, branchless below 2⁵¹) gives bit for bit the first nodes of
+    /// `base_1d` axis by axis, for every kernel, whether all, some or none of the axes take the
+    /// fast path; NaN included.
+    fn bases_match_base_1d<const S: usize>() {
+        let mut values = FLOOR_CASES.to_vec();
+        values.extend([Real::NAN, -Real::NAN, 0.25, -0.75, 63.5, 1e-17]);
+        let mut v: Real = 1e-3;
+        while v < 1e16 {
+            values.extend([v, -v, v.next_up(), -v.next_down()]);
+            v *= 1.0078125;
+        }
+        let check = |xh: &[Real]| match *xh {
+            [a, b] => {
+                let (f, i) = bases::<2, S>(&[a, b]);
+                for (k, x) in [a, b].into_iter().enumerate() {
+                    let (f1, i1) = base_1d::<S>(x);
+                    assert_eq!((f[k].to_bits(), i[k]), (f1.to_bits(), i1), "{x} in {xh:?}");
+                }
+            }
+            [a, b, c] => {
+                let (f, i) = bases::<3, S>(&[a, b, c]);
+                for (k, x) in [a, b, c].into_iter().enumerate() {
+                    let (f1, i1) = base_1d::<S>(x);
+                    assert_eq!((f[k].to_bits(), i[k]), (f1.to_bits(), i1), "{x} in {xh:?}");
+                }
+            }
+            _ => unreachable!(),
+        };
+        for (k, &x) in values.iter().enumerate() {
+            // Each value beside a neighbour from the list and beside a lattice value, in both
+            // orders, in 2D and 3D.
+            let y = values[(k * 7 + 3) % values.len()];
+            check(&[x, y]);
+            check(&[0.5, x]);
+            check(&[x, 0.25, y]);
+            check(&[y, x, 17.75]);
+        }
+    }
+
+    #[test]
+    fn all_axes_bases_match_the_axis_by_axis_base() {
+        bases_match_base_1d::<2>();
+        bases_match_base_1d::<3>();
+        bases_match_base_1d::<4>();
     }
 
     #[test]
