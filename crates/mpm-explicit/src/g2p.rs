@@ -603,8 +603,11 @@ fn check<const D: usize>(
 ) -> Option<(Violation, Real)> {
     // `c · 0` is ±0 for finite `c` and NaN otherwise, so the sum is zero exactly when every
     // value is finite: one test in the common case, the itemised tests only when it fails.
-    let probe = |m: &[Real]| m.iter().fold(0.0, |sum, c| sum + c * 0.0);
-    if probe(u.v.as_slice()) + probe(u.x.as_slice()) + probe(u.f.as_slice()) + u.j * 0.0 != 0.0 {
+    // Summed by vectors, component-wise, so the additions are independent and packed.
+    let probe =
+        u.f.column_iter()
+            .fold(u.v * 0.0 + u.x * 0.0, |sum, c| sum + c * 0.0);
+    if probe.sum() + u.j * 0.0 != 0.0 {
         let finite = |m: &[Real]| m.iter().all(|c| c.is_finite());
         if !finite(u.v.as_slice()) {
             return Some((Violation::NonFinite("velocity"), u.v.norm()));
