@@ -424,7 +424,10 @@ impl<const D: usize> Blocks<D> {
                         for a in 0..D {
                             let xh = (xp[a] - spec.origin[a]) * inv_dx;
                             let base = kernel.base_node(xh).max(0) as usize;
-                            id += (base / b).min(dims[a] - 1) * stride;
+                            // The constant itself, not the copy `b` the closure would
+                            // capture: rayon calls the closure out of line, where `b` is a
+                            // load and the division an integer `div` (2 per particle in 2D).
+                            id += (base / Self::BLOCK_CELLS).min(dims[a] - 1) * stride;
                             stride *= dims[a];
                         }
                         id as u32
