@@ -27,6 +27,8 @@ pub struct FluidMaterial {
 impl FluidMaterial {
     /// Pressure p(J) = (K/γ)(J^{−γ} − 1) (Pa). Returns +∞ for J ≤ 0 (a collapsed or inverted
     /// fluid element has no meaningful pressure; the solver's guard rejects it) and NaN for NaN.
+    /// Inline: P2G evaluates it once per fluid particle, a call from another crate otherwise.
+    #[inline]
     pub fn pressure(&self, j: Real) -> Real {
         if j <= 0.0 {
             return Real::INFINITY;
