@@ -179,7 +179,9 @@ fn base_1d<const S: usize>(xh: Real) -> (Real, i64) {
 /// [`base_1d`] along all `D` axes at once. When every coordinate is below 2⁵¹ in magnitude (any
 /// particle in a grid), the axes take [`floor_parts`]' rounding path without its branches, so
 /// the compiler can run them side by side in vector registers: the same operations on each
-/// axis, hence the same values; otherwise each axis goes through [`base_1d`].
+/// axis, hence the same values; otherwise each axis goes through [`base_1d`]. The rounding
+/// path is written out again here rather than shared with `floor_parts`: both shared forms
+/// tried made G2P 2–10 % slower (benches/README.md, `ab6a78d`).
 #[inline(always)]
 fn bases<const D: usize, const S: usize>(xh: &[Real; D]) -> ([Real; D], [i64; D]) {
     const ROUND: Real = 6755399441055744.0; // 1.5 · 2⁵², as in `floor_parts`
