@@ -85,31 +85,68 @@ impl<const D: usize> GridSpec<D> {
     /// grid, for testing many particles with [`StencilRange::contains`].
     pub fn stencil_range(&self, kernel: Kernel) -> StencilRange<D> {
         let lo = kernel.lower_margin();
+        let hi = |a: usize| (self.size[a] - kernel.support()) as Real + lo + 1.0;
         StencilRange {
-            lo,
-            hi: std::array::from_fn(|a| (self.size[a] - kernel.support()) as Real + lo + 1.0),
+            lo: first_offset_reaching(lo, self.dx),
+            hi: std::array::from_fn(|a| first_offset_reaching(hi(a), self.dx)),
         }
     }
 }
 
+/// The smallest offset `t` (m) whose grid-unit coordinate, the rounded quotient `t / dx`,
+/// is at least `q`. Division by `dx > 0` rounds monotonically, so `t / dx >= q` holds exactly
+/// for the offsets from this one up: comparing offsets with it decides what comparing the
+/// quotients with `q` decides, without a division per test.
+fn first_offset_reaching(q: Real, dx: Real) -> Real {
+    let reaches = |t: Real| t / dx >= q;
+    let mut t = q * dx;
+    if reaches(t) {
+        while reaches(adjacent(t, false)) {
+            t = adjacent(t, false);
+        }
+    } else {
+        while !reaches(t) {
+            t = adjacent(t, true);
+        }
+    }
+    t
+}
+
+/// The double next to the finite `t`, above it when `up` (what `f64::next_up` and
+/// `next_down` give from Rust 1.86, newer than the workspace's minimum version).
+fn adjacent(t: Real, up: bool) -> Real {
+    if t == 0.0 {
+        let tiny = Real::from_bits(1);
+        return if up { tiny } else { -tiny };
+    }
+    let bits = t.to_bits();
+    // Away from zero the magnitude, and so the bit pattern of either sign, grows.
+    Real::from_bits(if (t > 0.0) == up { bits + 1 } else { bits - 1 })
+}
+
 /// Where a particle has its whole stencil inside a grid: `lo ≤ x̂_a < hi[a]` along every axis,
-/// `x̂ = (x − origin)/dx` in grid units ([`GridSpec::stencil_range`]).
+/// `x̂ = (x − origin)/dx` in grid units ([`GridSpec::stencil_range`]), with `lo` the kernel's
+/// lower margin and `hi[a]` the exclusive bound of axis `a`. Held as the offsets
+/// `x_a − origin_a` (m) at which those bounds are first reached, so a test divides nothing and
+/// decides exactly as the quotients would.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StencilRange<const D: usize> {
-    /// Lowest grid-unit coordinate (dimensionless), the kernel's lower margin.
-    pub lo: Real,
-    /// Bound (exclusive) of the grid-unit coordinate along each axis (dimensionless).
-    pub hi: [Real; D],
+    /// Smallest offset from the grid origin (m) whose grid-unit coordinate reaches `lo`.
+    lo: Real,
+    /// Smallest offset from the grid origin along each axis (m) whose grid-unit coordinate
+    /// reaches `hi[a]` (excluded).
+    hi: [Real; D],
 }
 
 impl<const D: usize> StencilRange<D> {
     /// Whether a particle at `x` (m) of grid `spec` (the grid of this range) has its whole
-    /// stencil inside the grid; false for non-finite positions.
+    /// stencil inside the grid; false for non-finite positions (an infinite offset lies beyond
+    /// one of the finite bounds, and NaN compares false).
     #[inline]
     pub fn contains(&self, spec: &GridSpec<D>, x: &Vector<D>) -> bool {
         (0..D).all(|a| {
-            let xh = (x[a] - spec.origin[a]) / spec.dx;
-            xh.is_finite() && xh >= self.lo && xh < self.hi[a]
+            let t = x[a] - spec.origin[a];
+            t >= self.lo && t < self.hi[a]
         })
     }
 }
@@ -348,6 +385,85 @@ impl<const D: usize> GridNodes<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The offset bounds decide as the grid-unit quotients they replace: for several cell
+    /// sizes and origins, every kernel, and positions at, next to and around each bound as
+    /// well as spread over the grid and beyond it, and non-finite ones; and the ulp steps that
+    /// find the bounds agree with the standard library's.
+    #[test]
+    fn stencil_range_decides_as_the_quotient_test() {
+        use crate::test_util::Lcg;
+        let quotient = |spec: &GridSpec<2>, kernel: Kernel, x: &Vector<2>| {
+            let lo = kernel.lower_margin();
+            (0..2).all(|a| {
+                let hi = (spec.size[a] - kernel.support()) as Real + lo + 1.0;
+                let xh = (x[a] - spec.origin[a]) / spec.dx;
+                xh.is_finite() && xh >= lo && xh < hi
+            })
+        };
+        let mut rng = Lcg(7);
+        let (mut tested, mut inside, mut at_bounds) = (0, 0, 0);
+        for dx in [0.1, 1.0 / 64.0, 0.03, 1e-3, 0.7, 3.3] {
+            for origin in [0.0, -0.35, 1.0 / 3.0, 12.5] {
+                let spec = GridSpec::<2>::new(Vector::<2>::new(origin, -origin), dx, [37, 20]);
+                for kernel in [Kernel::Linear, Kernel::Quadratic, Kernel::Cubic] {
+                    let range = spec.stencil_range(kernel);
+                    let mut check = |x: Vector<2>| {
+                        let same = range.contains(&spec, &x) == quotient(&spec, kernel, &x);
+                        assert!(same, "{x:?} dx {dx} origin {origin} {kernel:?}");
+                        tested += 1;
+                        inside += usize::from(range.contains(&spec, &x));
+                    };
+                    for a in 0..2 {
+                        let mid = spec.origin[1 - a] + 5.0 * dx;
+                        for bound in [range.lo, range.hi[a]] {
+                            // Positions one ulp apart around the bound.
+                            let mut xa = spec.origin[a] + bound;
+                            for _ in 0..4 {
+                                xa = xa.next_down();
+                            }
+                            for _ in 0..9 {
+                                let mut x = Vector::<2>::repeat(mid);
+                                x[a] = xa;
+                                check(x);
+                                at_bounds += 1;
+                                xa = xa.next_up();
+                            }
+                        }
+                    }
+                    for _ in 0..2000 {
+                        let x = Vector::<2>::from_fn(|a, _| {
+                            spec.origin[a] + (rng.next() * 1.2 - 0.1) * spec.size[a] as Real * dx
+                        });
+                        check(x);
+                    }
+                    for v in [Real::NAN, Real::INFINITY, Real::NEG_INFINITY, 1e308, -1e308] {
+                        check(Vector::<2>::new(v, spec.origin[1] + 5.0 * dx));
+                        check(Vector::<2>::new(spec.origin[0] + 5.0 * dx, v));
+                    }
+                }
+            }
+        }
+        assert_eq!(at_bounds, 6 * 4 * 3 * 2 * 2 * 9);
+        for t in [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.1,
+            -3.7e-5,
+            2.5e300,
+            Real::from_bits(1),
+        ] {
+            assert_eq!(adjacent(t, true).to_bits(), t.next_up().to_bits(), "{t}");
+            assert_eq!(adjacent(t, false).to_bits(), t.next_down().to_bits(), "{t}");
+        }
+        // Both outcomes occur often: the comparison is not vacuous.
+        assert!(
+            inside > tested / 4 && inside < tested * 3 / 4,
+            "{inside} of {tested}"
+        );
+    }
 
     #[test]
     fn index_round_trip_and_stencil_containment() {

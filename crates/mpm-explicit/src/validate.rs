@@ -66,6 +66,7 @@ pub(crate) fn validate<const D: usize>(
         }
     }
     validate_multigrid(params, materials, particles)?;
+    let range = spec.stencil_range(params.kernel);
     for p in 0..particles.len() {
         let material = particles.material[p];
         if material as usize >= materials.len() {
@@ -75,7 +76,7 @@ pub(crate) fn validate<const D: usize>(
                 count: materials.len(),
             });
         }
-        if !spec.contains_stencil(params.kernel, &particles.x[p]) {
+        if !range.contains(spec, &particles.x[p]) {
             return Err(SetupError::ParticleOutsideGrid {
                 index: p,
                 position: format!("{:?}", particles.x[p].as_slice()),

@@ -54,8 +54,9 @@ impl<const D: usize> ReferenceConfig<D> {
                 reason: "too many particles for 32-bit indices",
             });
         }
+        let range = spec.stencil_range(kernel);
         for (p, x) in positions.iter().enumerate() {
-            if !spec.contains_stencil(kernel, x) {
+            if !range.contains(&spec, x) {
                 return Err(SetupError::ParticleOutsideGrid {
                     index: p,
                     position: format!("{:?}", x.as_slice()),

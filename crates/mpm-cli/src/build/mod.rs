@@ -470,7 +470,8 @@ fn sample_body<const D: usize>(
             ),
         ));
     }
-    if let Some(x) = xs.iter().find(|x| !spec.contains_stencil(k, x)) {
+    let range = spec.stencil_range(k);
+    if let Some(x) = xs.iter().find(|x| !range.contains(spec, x)) {
         return Err(scene.error(
             &geometry_key(i, b, true),
             format!(
