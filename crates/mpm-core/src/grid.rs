@@ -96,10 +96,15 @@ impl<const D: usize> GridSpec<D> {
 /// The smallest offset `t` (m) whose grid-unit coordinate, the rounded quotient `t / dx`,
 /// is at least `q`. Division by `dx > 0` rounds monotonically, so `t / dx >= q` holds exactly
 /// for the offsets from this one up: comparing offsets with it decides what comparing the
-/// quotients with `q` decides, without a division per test.
+/// quotients with `q` decides, without a division per test. The product `q dx` it starts
+/// from is within a few ulps of it; for a `dx` that is not finite and positive (no grid a
+/// solver accepts) the product itself is returned, so the search always ends.
 fn first_offset_reaching(q: Real, dx: Real) -> Real {
     let reaches = |t: Real| t / dx >= q;
     let mut t = q * dx;
+    if !(dx > 0.0 && dx.is_finite() && t.is_finite()) {
+        return t;
+    }
     if reaches(t) {
         while reaches(adjacent(t, false)) {
             t = adjacent(t, false);
@@ -458,6 +463,11 @@ mod tests {
             assert_eq!(adjacent(t, true).to_bits(), t.next_up().to_bits(), "{t}");
             assert_eq!(adjacent(t, false).to_bits(), t.next_down().to_bits(), "{t}");
         }
+        // A grid no solver accepts still gives an answer (nothing inside) instead of a hang.
+        let nan = GridSpec::<2>::new(Vector::<2>::zeros(), Real::NAN, [37, 20]);
+        assert!(!nan
+            .stencil_range(Kernel::Quadratic)
+            .contains(&nan, &Vector::<2>::repeat(1.0)));
         // Both outcomes occur often: the comparison is not vacuous.
         assert!(
             inside > tested / 4 && inside < tested * 3 / 4,
