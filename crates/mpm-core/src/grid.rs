@@ -75,14 +75,17 @@ impl<const D: usize> GridSpec<D> {
         m
     }
 
-    /// Whether a particle at `x` (m) has its whole `kernel` stencil inside the grid.
+    /// Whether a particle at `x` (m) has its whole `kernel` stencil inside the grid. For one
+    /// position: it finds the range's bounds on every call, where a loop over particles should
+    /// build [`Self::stencil_range`] once.
     #[inline]
     pub fn contains_stencil(&self, kernel: Kernel, x: &Vector<D>) -> bool {
         self.stencil_range(kernel).contains(self, x)
     }
 
-    /// The grid-unit coordinates at which a particle has its whole `kernel` stencil inside the
-    /// grid, for testing many particles with [`StencilRange::contains`].
+    /// The positions at which a particle has its whole `kernel` stencil inside the grid, as
+    /// bounds on the offset from the origin (m), for testing many particles with
+    /// [`StencilRange::contains`].
     pub fn stencil_range(&self, kernel: Kernel) -> StencilRange<D> {
         let lo = kernel.lower_margin();
         let hi = |a: usize| (self.size[a] - kernel.support()) as Real + lo + 1.0;
