@@ -555,10 +555,11 @@ fn gather_rows<const D: usize, const S: usize, const FLIP: bool>(
     );
     st.for_each_row(first, &stride, |i0, wr, dr| {
         let row = &win.velocity[i0..i0 + S];
-        // The row sums start from the first node's terms rather than from +0, which cost 2D
+        // The row sums start from the first node's terms rather than from +0, which cost 2·D
         // additions per row: `+0 + t` is `t` for every t but −0, and a row sum's sign of zero
         // cannot reach the result, because `v` and `b` start at +0 and a sum is −0 only when
         // both terms are, so they never hold −0 (test: row_gather_never_returns_negative_zero).
+        // (`dv` adds each node's term directly, as before.)
         let (mut sum, mut col0) = (Vector::<D>::zeros(), Vector::<D>::zeros());
         for i in 0..S {
             let w = st.w[0][i] * wr;
@@ -762,7 +763,8 @@ mod tests {
             let spec = GridSpec::<D>::new(Vector::<D>::zeros(), 0.1, [16; D]);
             let inv_dx = 1.0 / spec.dx;
             let minv = kernel.mls_inertia_inv(spec.dx).unwrap();
-            // Positions on a lattice that is not aligned with the grid, some exactly on nodes.
+            // Positions on two lattices: one of the grid's spacing (at nodes, up to rounding)
+            // and one of 0.077 m.
             let x: Vec<Vector<D>> = (0..125)
                 .map(|p| {
                     Vector::<D>::from_fn(|a, _| {
