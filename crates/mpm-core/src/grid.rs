@@ -99,37 +99,39 @@ impl<const D: usize> GridSpec<D> {
 /// The smallest offset `t` (m) whose grid-unit coordinate, the rounded quotient `t / dx`,
 /// is at least `q`. Division by `dx > 0` rounds monotonically, so `t / dx >= q` holds exactly
 /// for the offsets from this one up: comparing offsets with it decides what comparing the
-/// quotients with `q` decides, without a division per test. The product `q dx` it starts
-/// from is within a few ulps of it; for a `dx` that is not finite and positive (no grid a
-/// solver accepts) the product itself is returned, so the search always ends.
+/// quotients with `q` decides, without a division per test. Found by bisection over the
+/// doubles in their order (at most 64 divisions, whatever `q` and `dx`); for a `dx` that is not
+/// finite and positive, or a `q` that is not finite (no grid a solver accepts), the product
+/// `q dx` is returned instead.
 fn first_offset_reaching(q: Real, dx: Real) -> Real {
+    if !(dx > 0.0 && dx.is_finite() && q.is_finite()) {
+        return q * dx;
+    }
     let reaches = |t: Real| t / dx >= q;
-    let mut t = q * dx;
-    if !(dx > 0.0 && dx.is_finite() && t.is_finite()) {
-        return t;
-    }
-    if reaches(t) {
-        while reaches(adjacent(t, false)) {
-            t = adjacent(t, false);
-        }
-    } else {
-        while !reaches(t) {
-            t = adjacent(t, true);
+    // −∞ does not reach the finite q, +∞ does; keep that bracket and halve it.
+    let (mut below, mut at) = (ordered(Real::NEG_INFINITY), ordered(Real::INFINITY));
+    while at - below > 1 {
+        let mid = below + (at - below) / 2;
+        if reaches(from_ordered(mid)) {
+            at = mid;
+        } else {
+            below = mid;
         }
     }
-    t
+    from_ordered(at)
 }
 
-/// The double next to the finite `t`, above it when `up` (what `f64::next_up` and
-/// `next_down` give from Rust 1.86, newer than the workspace's minimum version).
-fn adjacent(t: Real, up: bool) -> Real {
-    if t == 0.0 {
-        let tiny = Real::from_bits(1);
-        return if up { tiny } else { -tiny };
-    }
-    let bits = t.to_bits();
-    // Away from zero the magnitude, and so the bit pattern of either sign, grows.
-    Real::from_bits(if (t > 0.0) == up { bits + 1 } else { bits - 1 })
+/// The position of the non-NaN double `t` in the order of the doubles, as an integer that
+/// grows with `t` (−0 just below +0).
+fn ordered(t: Real) -> i128 {
+    let bits = t.to_bits() as i64;
+    i128::from(bits ^ ((bits >> 63) & i64::MAX))
+}
+
+/// The double at position `k` of [`ordered`].
+fn from_ordered(k: i128) -> Real {
+    let k = k as i64;
+    Real::from_bits((k ^ ((k >> 63) & i64::MAX)) as u64)
 }
 
 /// Where a particle has its whole stencil inside a grid: `lo ≤ x̂_a < hi[a]` along every axis,
@@ -396,8 +398,9 @@ mod tests {
 
     /// The offset bounds decide as the grid-unit quotients they replace: for several cell
     /// sizes and origins, every kernel, and positions at, next to and around each bound as
-    /// well as spread over the grid and beyond it, and non-finite ones; and the ulp steps that
-    /// find the bounds agree with the standard library's.
+    /// well as spread over the grid and beyond it, and non-finite ones; and the order of the
+    /// doubles that the bisection finding the bounds walks agrees with the standard library's
+    /// neighbours.
     #[test]
     fn stencil_range_decides_as_the_quotient_test() {
         use crate::test_util::Lcg;
@@ -411,7 +414,9 @@ mod tests {
         };
         let mut rng = Lcg(7);
         let (mut tested, mut inside, mut at_bounds) = (0, 0, 0);
-        for dx in [0.1, 1.0 / 64.0, 0.03, 1e-3, 0.7, 3.3] {
+        // 1e20: the linear kernel's bound 0 sits among offsets whose quotients underflow to
+        // −0, which a walk by single ulps would take about 1e20 steps to cross.
+        for dx in [0.1, 1.0 / 64.0, 0.03, 1e-3, 0.7, 3.3, 1e20] {
             for origin in [0.0, -0.35, 1.0 / 3.0, 12.5] {
                 let spec = GridSpec::<2>::new(Vector::<2>::new(origin, -origin), dx, [37, 20]);
                 for kernel in [Kernel::Linear, Kernel::Quadratic, Kernel::Cubic] {
@@ -452,7 +457,9 @@ mod tests {
                 }
             }
         }
-        assert_eq!(at_bounds, 6 * 4 * 3 * 2 * 2 * 9);
+        assert_eq!(at_bounds, 7 * 4 * 3 * 2 * 2 * 9);
+        // The order of the doubles that the bisection walks: adjacent doubles at adjacent
+        // positions, and back again bit for bit.
         for t in [
             0.0,
             -0.0,
@@ -462,9 +469,16 @@ mod tests {
             -3.7e-5,
             2.5e300,
             Real::from_bits(1),
+            Real::MAX,
+            Real::INFINITY,
+            Real::NEG_INFINITY,
         ] {
-            assert_eq!(adjacent(t, true).to_bits(), t.next_up().to_bits(), "{t}");
-            assert_eq!(adjacent(t, false).to_bits(), t.next_down().to_bits(), "{t}");
+            assert_eq!(from_ordered(ordered(t)).to_bits(), t.to_bits(), "{t}");
+            // (−0 and +0 hold two positions, so the zeros' neighbours are one further.)
+            if t.is_finite() && t != 0.0 {
+                assert_eq!(ordered(t.next_up()), ordered(t) + 1, "{t}");
+                assert_eq!(ordered(t.next_down()), ordered(t) - 1, "{t}");
+            }
         }
         // A grid no solver accepts still gives an answer (nothing inside) instead of a hang.
         let nan = GridSpec::<2>::new(Vector::<2>::zeros(), Real::NAN, [37, 20]);
