@@ -18,6 +18,7 @@ pub mod math;
 pub mod mirror;
 pub mod neighbors;
 pub mod particles;
+pub mod prefetch;
 pub mod quasistatic;
 pub mod sampling;
 pub mod scatter;

@@ -376,6 +376,11 @@ impl<const D: usize> Blocks<D> {
     /// small enough for load balance; the blocks of the sparse grid ([`NodeLayout::BLOCK`]).
     pub const BLOCK_CELLS: usize = NodeLayout::<D>::BLOCK;
 
+    /// How many particles ahead in its block's order [`Self::scatter_prefetching`] announces a
+    /// particle: about the memory latency over the time one particle takes (3D P2G, 1 thread,
+    /// `p2g/3d_256k`: 26.1 ms without hints, 24.6 ms 8 ahead, 24.3 ms 16 ahead).
+    pub const PREFETCH_AHEAD: usize = 16;
+
     /// Bins every particle at positions `x` (m) for scatters with `kernel` onto `spec`. Every
     /// position must have its stencil inside the grid.
     pub fn sort(&mut self, spec: &GridSpec<D>, kernel: Kernel, x: &[Vector<D>]) {
@@ -573,11 +578,30 @@ impl<const D: usize> Blocks<D> {
         &self,
         buffers: &mut BlockBuffers<C::Storage>,
         layout: &NodeLayout<D>,
-        mut out: C,
+        out: C,
         f: F,
     ) where
         C: Channels,
         F: Fn(usize, &BlockWindow<D>, &mut C::Storage) + Sync,
+    {
+        self.scatter_prefetching(buffers, layout, out, |_| {}, f);
+    }
+
+    /// [`Self::scatter`], calling `ahead(q)` before each particle's `f` with the particle `q`
+    /// [`Self::PREFETCH_AHEAD`] places later in the same block's order, if there is one, so
+    /// that `ahead` can ask for `q`'s data ([`crate::prefetch::read`]) while the particles
+    /// before it are scattered. `ahead` changes no result: it is for hints only.
+    pub fn scatter_prefetching<C, F, A>(
+        &self,
+        buffers: &mut BlockBuffers<C::Storage>,
+        layout: &NodeLayout<D>,
+        mut out: C,
+        ahead: A,
+        f: F,
+    ) where
+        C: Channels,
+        F: Fn(usize, &BlockWindow<D>, &mut C::Storage) + Sync,
+        A: Fn(usize) + Sync,
     {
         let (_, kernel) = self.grid.expect("Blocks::sort before Blocks::scatter");
         let width = self.width(kernel);
@@ -597,7 +621,11 @@ impl<const D: usize> Blocks<D> {
             .for_each(|(r, (&(_, start, end), buf))| {
                 let window = self.window(r, width);
                 buf.reset(enabled, len);
-                for &p in &order[start..end] {
+                let ids = &order[start..end];
+                for (k, &p) in ids.iter().enumerate() {
+                    if let Some(&q) = ids.get(k + Self::PREFETCH_AHEAD) {
+                        ahead(q as usize);
+                    }
                     f(p as usize, &window, buf);
                 }
             });
@@ -962,6 +990,96 @@ mod tests {
     fn exact_scatter_equals_the_plain_serial_scatter_bitwise() {
         dyadic_matches_serial([70, 50]);
         dyadic_matches_serial([30, 22, 20]);
+    }
+
+    /// The prefetching scatter announces, before each particle of a block, the particle
+    /// `PREFETCH_AHEAD` places later in that block's order (none near the block's end, none
+    /// from another block), and its sums are bitwise those of the plain scatter, on 1 and 2
+    /// threads.
+    #[test]
+    fn prefetching_scatter_announces_each_blocks_later_particles() {
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        enum Event {
+            Ahead(usize),
+            Scatter(usize),
+        }
+        let (spec, kernel) = (spec_3d(), Kernel::Quadratic);
+        let c = cloud(&spec, 3000, 11);
+        let mut blocks = Blocks::default();
+        blocks.sort(&spec, kernel, &c.x);
+        let plain = block_scatter(&blocks, &mut BlockBuffers::default(), &spec, kernel, &c);
+        let layout = layout_of(&spec, &blocks);
+        let ahead = Blocks::<3>::PREFETCH_AHEAD;
+        for threads in [1, 2] {
+            let log = std::sync::Mutex::new(Vec::new());
+            let (mut mass, mut momentum) = (Vec::new(), Vec::new());
+            with_threads(threads, || {
+                blocks.scatter_prefetching(
+                    &mut BlockBuffers::default(),
+                    &layout,
+                    (&mut mass, &mut momentum),
+                    |q| log.lock().unwrap().push(Event::Ahead(q)),
+                    |p, window, (mb, pb)| {
+                        log.lock().unwrap().push(Event::Scatter(p));
+                        Stencil::new(kernel, &spec, &c.x[p]).for_each(|node, w, _| {
+                            let k = window.local(&node);
+                            mb[k] += w * c.m[p];
+                            pb[k] += c.v[p] * (w * c.m[p]);
+                        });
+                    },
+                )
+            });
+            let dense = (
+                to_dense(&spec, &layout, &mass),
+                to_dense(&spec, &layout, &momentum),
+            );
+            assert_eq!(bits(&dense), bits(&plain));
+            // Each block's events, in the order they happened, are exactly the expected ones.
+            let log = log.into_inner().unwrap();
+            let block_of = |e: &Event| {
+                let (Event::Ahead(p) | Event::Scatter(p)) = *e;
+                blocks
+                    .ranges
+                    .iter()
+                    .position(|&(_, s, e)| blocks.order[s..e].contains(&(p as u32)))
+            };
+            let mut long = 0;
+            for (b, &(_, start, end)) in blocks.ranges.iter().enumerate() {
+                let ids: Vec<usize> = blocks.order[start..end]
+                    .iter()
+                    .map(|&p| p as usize)
+                    .collect();
+                let mut expected = Vec::new();
+                for k in 0..ids.len() {
+                    if k + ahead < ids.len() {
+                        expected.push(Event::Ahead(ids[k + ahead]));
+                    }
+                    expected.push(Event::Scatter(ids[k]));
+                }
+                let seen: Vec<Event> = log
+                    .iter()
+                    .filter(|e| block_of(e) == Some(b))
+                    .copied()
+                    .collect();
+                assert_eq!(seen, expected, "block {b}");
+                long += usize::from(ids.len() > ahead);
+            }
+            assert_eq!(
+                log.len(),
+                2 * 3000
+                    - blocks
+                        .ranges
+                        .iter()
+                        .map(|&(_, s, e)| (e - s).min(ahead))
+                        .sum::<usize>()
+            );
+            // The cloud has blocks both longer and shorter than the look-ahead.
+            assert!(
+                long > 0 && long < blocks.ranges.len(),
+                "{long} of {}",
+                blocks.ranges.len()
+            );
+        }
     }
 
     #[test]

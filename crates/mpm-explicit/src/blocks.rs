@@ -76,8 +76,24 @@ impl<const D: usize> Blocks<D> {
     where
         F: Fn(usize, &BlockWindow<D>, &mut Storage<D>) + Sync,
     {
+        self.scatter_prefetching(layout, out, |_| {}, f);
+    }
+
+    /// [`Self::scatter`] with `ahead(q)` called for the particle `q` some places ahead in the
+    /// block's order, to prefetch its data ([`scatter::Blocks::scatter_prefetching`]).
+    pub fn scatter_prefetching<F, A>(
+        &mut self,
+        layout: &NodeLayout<D>,
+        out: Sums<'_, D>,
+        ahead: A,
+        f: F,
+    ) where
+        F: Fn(usize, &BlockWindow<D>, &mut Storage<D>) + Sync,
+        A: Fn(usize) + Sync,
+    {
         let channels = (out.mass, out.momentum, out.momentum0, out.extra);
-        self.binning.scatter(&mut self.buffers, layout, channels, f);
+        self.binning
+            .scatter_prefetching(&mut self.buffers, layout, channels, ahead, f);
     }
 
     /// Loads the grid velocities `velocity` (m/s) and, for FLIP, the velocities before the

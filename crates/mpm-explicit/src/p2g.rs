@@ -4,6 +4,7 @@
 use crate::blocks::{Blocks, Sums};
 use crate::materials::MaterialView;
 use crate::params::{BodyForce, Transfer};
+use mpm_core::prefetch;
 use mpm_core::{
     AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Material, Matrix, NodeLayout, Particles,
     Real, Stencil, Vector,
@@ -84,6 +85,29 @@ impl<const D: usize> P2gInputs<'_, D>
 where
     Dim<D>: DimOps<D>,
 {
+    /// Asks for the columns [`Self::impulse`] and the stencil will read of particle `q`, in 3D
+    /// only. P2G reads its particles in binned order, so their data comes in runs of a block
+    /// row; announcing each particle some places ahead lets the loads of the next run start
+    /// early. Measured (5 December 2026, medians of interleaved runs): `p2g/3d_256k` 25.4 →
+    /// 24.7 ms on 1 thread, 13.56 → 12.87 ms on 2. In 2D, with half the bytes per particle, the
+    /// hints cost more than they saved (`p2g/2d_256k` 10.1 → 11.6 ms, 1 thread), so there are
+    /// none.
+    #[inline(always)]
+    fn prefetch(&self, q: usize) {
+        if D != 3 {
+            return;
+        }
+        let ps = self.particles;
+        prefetch::read(&ps.x[q]);
+        prefetch::read(&ps.v[q]);
+        prefetch::read(&ps.affine[q]);
+        if let Some(f) = &ps.def_grad {
+            prefetch::read(&f[q]);
+        }
+        prefetch::read(&ps.mass[q]);
+        prefetch::read(&ps.volume0[q]);
+    }
+
     #[inline(always)]
     fn impulse(&self, p: usize) -> Impulse<D> {
         let ps = self.particles;
@@ -153,9 +177,10 @@ where
     ) {
         debug_assert_eq!(out.momentum0.is_some(), WITH0);
         let inv_dx = 1.0 / self.spec.dx;
-        blocks.scatter(
+        blocks.scatter_prefetching(
             self.layout,
             out,
+            |q| self.prefetch(q),
             |p, window, (mass, momentum, momentum0, _)| {
                 // The stencil first: its chain (floor, weights) then runs while the impulse's
                 // (stress, logarithm) is computed; in the other order the processor reaches the
