@@ -592,10 +592,12 @@ fn gather_rows<const D: usize, const S: usize, const FLIP: bool>(
 /// `s`'s plastic return mapping of the trial deformation gradient `f_trial` from `state`: the
 /// elastic part kept and the new plastic state. It takes and returns values so that no
 /// reference into G2P's per-particle [`Update`] escapes to the out-of-line call: when one did
-/// (`&mut u.plastic`, `&f_trial`), the whole record and the trial F lived on the stack for
-/// every particle, plastic or not, each field stored and read back, some by halves the CPU
-/// cannot forward. Measured (1 thread, interleaved, 5 December 2026): `g2p/2d_256k` 9.56 →
-/// 8.82 ms, `g2p/3d_256k` 25.09 → 24.48 ms, the same bits.
+/// (`&mut u.plastic`, `&f_trial`), the record's fields and the trial F went through the stack
+/// on the way to the guard check for every particle, plastic or not, some stored by halves and
+/// read whole, which the CPU cannot forward. The compiler still keeps part of the record in
+/// memory; what the change bought is measured (1 thread, interleaved, 5 December 2026):
+/// `g2p/2d_256k` 9.56 → 8.82 ms, `g2p/3d_256k` 25.09 → 24.48 ms, the same bits. (TLMPM's
+/// A-ULMPM update calls [`SolidMaterial::return_mapping`] by reference too; not measured there.)
 #[inline(never)]
 fn return_mapping<const D: usize>(
     s: &SolidMaterial,
