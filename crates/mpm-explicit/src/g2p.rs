@@ -17,7 +17,7 @@ use crate::materials::MaterialView;
 use crate::multigrid::{Dissolution, Mixing, Porous};
 use crate::p2g::mls_gradient;
 use crate::params::{SoftWalls, Transfer};
-use mpm_core::material::{PlasticState, SolidMaterial};
+use mpm_core::material::PlasticState;
 use mpm_core::solver::nan_max;
 use mpm_core::{
     AxisStencil, Dim, DimOps, GridNodes, GridSpec, Kernel, Location, Material, Matrix, NodeLayout,
@@ -444,7 +444,7 @@ where
                 let f_trial = grad_step * old.f;
                 u.f = match old.plastic {
                     Some(state) => {
-                        let (f, state) = return_mapping(s, f_trial, state);
+                        let (f, state) = s.return_mapping(f_trial, state);
                         u.plastic = state;
                         f
                     }
@@ -589,28 +589,6 @@ fn gather_rows<const D: usize, const S: usize, const FLIP: bool>(
     Some((v, dv, b * minv))
 }
 
-/// `s`'s plastic return mapping of the trial deformation gradient `f_trial` from `state`: the
-/// elastic part kept and the new plastic state. It takes and returns values so that no
-/// reference into G2P's per-particle [`Update`] escapes to the out-of-line call: when one did
-/// (`&mut u.plastic`, `&f_trial`), the record's fields and the trial F went through the stack
-/// on the way to the guard check for every particle, plastic or not, some stored by halves and
-/// read whole, which the CPU cannot forward. The compiler still keeps part of the record in
-/// memory; what the change bought is measured (1 thread, interleaved, 5 December 2026):
-/// `g2p/2d_256k` 9.56 → 8.82 ms, `g2p/3d_256k` 25.09 → 24.48 ms, the same bits. (TLMPM's
-/// A-ULMPM update calls [`SolidMaterial::return_mapping`] by reference too; not measured there.)
-#[inline(never)]
-fn return_mapping<const D: usize>(
-    s: &SolidMaterial,
-    f_trial: Matrix<D>,
-    mut state: PlasticState,
-) -> (Matrix<D>, PlasticState)
-where
-    Dim<D>: DimOps<D>,
-{
-    let f = s.return_mapping(&f_trial, &mut state);
-    (f, state)
-}
-
 /// Predictive softened walls: pushes the velocity back when `x + τ v` is within `margin` of the
 /// grid box.
 fn soften<const D: usize>(spec: &GridSpec<D>, sw: &SoftWalls, x: &Vector<D>, v: &mut Vector<D>) {
@@ -727,7 +705,7 @@ pub(crate) fn commit_extra<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mpm_core::material::{ElasticModel, Lame};
+    use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
 
     /// The guard check names the first bad quantity in the order velocity, position,
     /// deformation, inversion, domain, CFL, and passes a good state.

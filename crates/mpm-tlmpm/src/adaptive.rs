@@ -125,10 +125,10 @@ where
                     Some(_) => g * b,
                     None => g,
                 };
-                let mut state = plastic.map_or_else(PlasticState::default, |s| s[p]);
+                let state = plastic.map_or_else(PlasticState::default, |s| s[p]);
                 match &materials[material[p] as usize] {
                     Material::Solid(s) if !matches!(s.plasticity, Plasticity::None) => {
-                        let fe = s.return_mapping(&trial, &mut state);
+                        let (fe, state) = s.return_mapping(trial, state);
                         let b = Dim::<D>::inverse(&g)
                             .map_or(Matrix::<D>::from_element(Real::NAN), |gi| gi * fe);
                         (fe, b, state)
