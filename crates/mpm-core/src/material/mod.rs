@@ -122,10 +122,9 @@ impl SolidMaterial {
     /// per-particle record escapes to the call. When explicit G2P passed `&mut u.plastic` and
     /// `&f_trial` of its per-particle update record, the record's fields and the trial F went
     /// through the stack on the way to the guard check for every particle, plastic or not, some
-    /// stored by halves and read whole, which the CPU cannot forward (part of the record still
-    /// goes through memory, but less of it); by value (1 thread,
-    /// interleaved, 5 December 2026): `g2p/2d_256k` 9.56 → 8.82 ms, `g2p/3d_256k` 25.09 →
-    /// 24.48 ms, the same bits.
+    /// stored by halves and read whole, which the CPU cannot forward. By value, less of the
+    /// record goes through memory (1 thread, interleaved, 5 December 2026): `g2p/2d_256k`
+    /// 9.56 → 8.82 ms, `g2p/3d_256k` 25.09 → 24.48 ms, the same bits.
     #[inline(never)]
     pub fn return_mapping<const D: usize>(
         &self,
