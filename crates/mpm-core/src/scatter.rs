@@ -421,14 +421,25 @@ impl<const D: usize> Blocks<D> {
             .for_each(|(c, (ids, counts))| {
                 counts.clear();
                 counts.resize(nblocks, 0);
-                for (i, id) in ids.iter_mut().enumerate() {
-                    let p = c * run_len + i;
-                    *id = if keep(p) {
-                        let xp = &x[p];
+                // Local copies: read through the closure's captures, they were reloaded from
+                // memory for every particle, after each store of an id.
+                let (origin, inv_dx, dims) = (spec.origin, inv_dx, dims);
+                let margin = kernel.lower_margin();
+                // Counted by runs of equal blocks (consecutive particles mostly share one):
+                // one addition per run instead of a chain of increments of the same counter.
+                let mut count = |(id, len): (u32, u32)| {
+                    if id != u32::MAX {
+                        counts[id as usize] += len;
+                    }
+                };
+                let mut run = (u32::MAX, 0);
+                let first = c * run_len;
+                for ((p, slot), xp) in (first..).zip(ids.iter_mut()).zip(&x[first..]) {
+                    let id = if keep(p) {
                         let (mut id, mut stride) = (0, 1);
                         for a in 0..D {
-                            let xh = (xp[a] - spec.origin[a]) * inv_dx;
-                            let base = kernel.base_node(xh).max(0) as usize;
+                            let xh = (xp[a] - origin[a]) * inv_dx;
+                            let base = Kernel::clamped_base_node(margin, xh);
                             // The constant itself, not the copy `b` the closure would
                             // capture: rayon calls the closure out of line, where `b` is a
                             // load and the division an integer `div` (2 per particle in 2D).
@@ -439,14 +450,15 @@ impl<const D: usize> Blocks<D> {
                     } else {
                         u32::MAX
                     };
-                }
-                // Counted by runs of equal blocks (consecutive particles mostly share one):
-                // one addition per run instead of a chain of increments of the same counter.
-                for same in ids.chunk_by(|a, b| a == b) {
-                    if same[0] != u32::MAX {
-                        counts[same[0] as usize] += same.len() as u32;
+                    *slot = id;
+                    if id == run.0 {
+                        run.1 += 1;
+                    } else {
+                        count(run);
+                        run = (id, 1);
                     }
                 }
+                count(run);
             });
         // Serial over the blocks: the non-empty ones become ranges; each run's count becomes
         // its cursor, the position of its block's particles within the range (relative).
