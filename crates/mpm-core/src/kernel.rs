@@ -69,8 +69,8 @@ impl Kernel {
     /// `margin =` [`Self::lower_margin`] (hoisted by callers that bin many particles). With
     /// `v = xh − margin`, the floor `⌊v⌋` and the truncation `v as i64` are equal for `v ≥ 0`
     /// (both saturate alike above `i64::MAX`), and below 0 the floor is at most −1 and the
-    /// truncation at most 0, so both clamp to 0; NaN gives 0 in both. The truncation is one
-    /// instruction where the floor is a branch and six.
+    /// truncation at most 0, so both clamp to 0; NaN gives 0 in both. The truncation (a
+    /// conversion and two fix-ups, for NaN and out of range) has no branch; the floor has one.
     #[inline]
     pub fn clamped_base_node(margin: Real, xh: Real) -> usize {
         ((xh - margin) as i64).max(0) as usize
