@@ -7,10 +7,11 @@ set -euo pipefail
 bin=$1; out=$2; end=${3:-0.1}; threads=${4:-2}
 cd "$(dirname "$0")/.."
 tmp=$(mktemp -d)
+ln -s "$PWD/scenes/meshes" "$tmp/meshes"
 mkdir -p "$out"
 for s in scenes/*.toml; do
   name=$(basename "$s" .toml)
-  # (no scene in scenes/ reads a file by a relative path, so the copy can live elsewhere)
+  # (scenes read their meshes by paths relative to the scene file: the copy sees scenes/meshes)
   sed -E "s/^end_time *= *[0-9.eE+-]+/end_time = $end/" "$s" > "$tmp/$name.toml"
   start=$(date +%s%N)
   if "$bin" run "$tmp/$name.toml" --out "$out/$name" --threads "$threads" --quiet >/dev/null 2>"$out/$name.log"; then
