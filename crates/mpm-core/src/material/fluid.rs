@@ -48,7 +48,7 @@ impl FluidMaterial {
     /// Returns +∞ for J ≤ 0 (see [`Self::pressure`]).
     ///
     /// Inline: the explicit G2P evaluates it for every fluid particle (its signal speed), and
-    /// as a call into this crate it made G2P save and reload its live floating-point registers
+    /// as a call across crates it made G2P save and reload its live floating-point registers
     /// around it (`benches/README.md`, 6 December 2026).
     #[inline]
     pub fn sound_speed(&self, j: Real) -> Real {
