@@ -40,7 +40,7 @@ mod test_util;
 pub use columns::{Column, ColumnData};
 pub use diagnostics::Diagnostics;
 pub use solver::{
-    retry_halving, Failure, Monitor, PlannedStage, SolveInfo, Solver, SolverState, StagePlan,
-    StageTimes, StepError, StepInfo, StepStart,
+    on_pool, retry_halving, Failure, Monitor, PlannedStage, SolveInfo, Solver, SolverState,
+    StagePlan, StageTimes, StepError, StepInfo, StepStart,
 };
 pub use timestep::{OnInstability, TimeStepPolicy};

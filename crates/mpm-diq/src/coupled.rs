@@ -125,7 +125,7 @@ use mpm_core::boundary::Boundaries;
 use mpm_core::columns::{self, Column};
 use mpm_core::material::Plasticity;
 use mpm_core::neighbors::CellList;
-use mpm_core::solver::{DtBound, FieldInfo, RestoreError, StageTime};
+use mpm_core::solver::{on_pool, DtBound, FieldInfo, RestoreError, StageTime};
 use mpm_core::timestep::choose_dt;
 use mpm_core::{
     retry_halving, Diagnostics, Dim, DimOps, Failure, GridSpec, Material, Matrix, Monitor,
@@ -1492,8 +1492,14 @@ where
         self.fluid.displacement_bound(vmax)
     }
 
-    /// Advances one step, with the solve errors typed.
+    /// Advances one step, with the solve errors typed. The step runs on a thread of the rayon
+    /// pool ([`on_pool`]).
     pub fn advance(&mut self) -> Result<StepInfo, StepError<CoupledError>> {
+        on_pool(|| self.advance_step())
+    }
+
+    /// [`Self::advance`] on the calling thread.
+    fn advance_step(&mut self) -> Result<StepInfo, StepError<CoupledError>> {
         let start = StepStart {
             step: self.steps,
             time: self.time,

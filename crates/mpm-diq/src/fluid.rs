@@ -7,7 +7,7 @@ use crate::pressure::{
 use crate::viscosity::Viscous;
 use mpm_core::boundary::{Boundaries, ContactKind};
 use mpm_core::columns::{self, Column};
-use mpm_core::solver::{DtBound, FieldInfo, RestoreError, StageTime};
+use mpm_core::solver::{on_pool, DtBound, FieldInfo, RestoreError, StageTime};
 use mpm_core::timestep::choose_dt;
 use mpm_core::{
     retry_halving, Diagnostics, Dim, DimOps, Failure, GridSpec, Location, Material, Matrix,
@@ -1165,8 +1165,14 @@ where
         Ok(Some(info))
     }
 
-    /// Advances one step (see [`Solver::step`]), with the pressure-solve error typed.
+    /// Advances one step (see [`Solver::step`]), with the pressure-solve error typed. The step
+    /// runs on a thread of the rayon pool ([`on_pool`]).
     pub fn advance(&mut self) -> Result<StepInfo, StepError<PressureError>> {
+        on_pool(|| self.advance_step())
+    }
+
+    /// [`Self::advance`] on the calling thread.
+    fn advance_step(&mut self) -> Result<StepInfo, StepError<PressureError>> {
         let start = StepStart {
             step: self.steps,
             time: self.time,

@@ -16,10 +16,10 @@ use mpm_core::solver::{nan_max, DtBound, RestoreError, StageTime};
 use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::volume::density_at;
 use mpm_core::{
-    columns, retry_halving, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec, Instability,
-    Location, Material, NodeLayout, OnInstability, Particles, Real, SetupError, Solver,
-    SolverState, Stage, StagePlan, StageTimes, StepError, StepInfo, StepStart, TimeStepPolicy,
-    Vector, Violation,
+    columns, on_pool, retry_halving, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec,
+    Instability, Location, Material, NodeLayout, OnInstability, Particles, Real, SetupError,
+    Solver, SolverState, Stage, StagePlan, StageTimes, StepError, StepInfo, StepStart,
+    TimeStepPolicy, Vector, Violation,
 };
 use rayon::prelude::*;
 use std::convert::Infallible;
@@ -220,9 +220,10 @@ where
     /// [`OnInstability::Abort`] they hold the failed step's partial result (time and the step
     /// count do not advance); under [`OnInstability::Retry`] the saved state is put back before
     /// each retry. (The same as [`Solver::step`], with
-    /// the error type narrowed: this solver has no iterative solve that could fail.)
+    /// the error type narrowed: this solver has no iterative solve that could fail.) The step
+    /// runs on a thread of the rayon pool ([`on_pool`]).
     pub fn step(&mut self) -> Result<StepInfo, Instability> {
-        self.advance_step().map_err(|e| match e {
+        on_pool(|| self.advance_step()).map_err(|e| match e {
             StepError::Instability(i) => i,
             StepError::Solve { source, .. } => match source {},
         })

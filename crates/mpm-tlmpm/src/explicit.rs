@@ -6,7 +6,7 @@ use crate::error::StepError;
 use crate::params::TlmpmParams;
 use crate::potential::internal_force;
 use crate::reference::ReferenceConfig;
-use mpm_core::solver::{StageTime, StepInfo};
+use mpm_core::solver::{on_pool, StageTime, StepInfo};
 use mpm_core::{
     Diagnostics, Dim, DimOps, GridSpec, Material, Matrix, Particles, Real, SetupError, Stage,
     StagePlan, StageTimes, Vector,
@@ -67,8 +67,14 @@ where
     }
 
     /// Advances one step, retrying with dt/2 on a failed guard check when the policy allows;
-    /// a failed step leaves the particles untouched.
+    /// a failed step leaves the particles untouched. The step runs on a thread of the rayon pool
+    /// ([`on_pool`]).
     pub fn step(&mut self) -> Result<ExplicitStepInfo, StepError> {
+        on_pool(|| self.advance_step())
+    }
+
+    /// [`Self::step`] on the calling thread.
+    fn advance_step(&mut self) -> Result<ExplicitStepInfo, StepError> {
         let start = self.core.start();
         let core = &self.core;
         let dt0 = self

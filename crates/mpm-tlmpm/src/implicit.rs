@@ -41,7 +41,7 @@ use crate::newton::{minimize, Indefinite, NewtonInfo, NewtonWork, Objective};
 use crate::params::{ImplicitParams, LinearSolver, TimeScheme, TlmpmParams};
 use crate::potential::{deformation, internal_force, tensor_len, Potential};
 use crate::reference::{Constraints, ReferenceConfig};
-use mpm_core::solver::{SolveInfo, StageTime, StepInfo};
+use mpm_core::solver::{on_pool, SolveInfo, StageTime, StepInfo};
 use mpm_core::{
     Diagnostics, Dim, DimOps, GridSpec, Location, Material, Matrix, Particles, Real, SetupError,
     Stage, StagePlan, StageTimes, Vector, Violation,
@@ -189,8 +189,14 @@ where
 
     /// Advances one step. On a failed guard check or Newton failure the step is retried with
     /// dt/2 when the policy allows it; otherwise the error names the step and what failed. A
-    /// failed step leaves the particles untouched.
+    /// failed step leaves the particles untouched. The step runs on a thread of the rayon pool
+    /// ([`on_pool`]).
     pub fn step(&mut self) -> Result<ImplicitStepInfo, StepError> {
+        on_pool(|| self.advance_step())
+    }
+
+    /// [`Self::step`] on the calling thread.
+    fn advance_step(&mut self) -> Result<ImplicitStepInfo, StepError> {
         let start = self.core.start();
         if self.implicit.linear == LinearSolver::Cholesky {
             self.analyse()
