@@ -6,7 +6,7 @@ use crate::error::CliError;
 use crate::scene::{self, CheckpointDef, Duration, Interval, LoadedScene, Precision};
 use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, to_field, UNITS};
 use mpm_core::solver::StageTime;
-use mpm_core::{Diagnostics, Dim, DimOps, Solver, StepError, StepInfo};
+use mpm_core::{on_pool, Diagnostics, Dim, DimOps, Solver, StepError, StepInfo};
 use mpm_io::{
     read_file, read_layout, write_atomically, write_file, write_file_with, write_xdmf, FileKind,
     Header, SeriesEntry,
@@ -144,9 +144,11 @@ pub fn run(opts: &RunOptions) -> Result<(), CliError> {
         None => (PathBuf::from(&scene.scene.output.directory), true),
     };
     prepare_output(&scene, &out, from_scene)?;
+    // The whole run on a pool thread: each step then starts without a hand-over from this
+    // thread (see `mpm_core::on_pool`), and so do the parallel parts of the outputs.
     match built {
-        AnyBuilt::D2(b) => Runner::new(*b, &scene, &out, opts)?.run(),
-        AnyBuilt::D3(b) => Runner::new(*b, &scene, &out, opts)?.run(),
+        AnyBuilt::D2(b) => on_pool(|| Runner::new(*b, &scene, &out, opts)?.run()),
+        AnyBuilt::D3(b) => on_pool(|| Runner::new(*b, &scene, &out, opts)?.run()),
     }
 }
 

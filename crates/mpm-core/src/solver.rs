@@ -298,8 +298,9 @@ pub fn retry_halving<T, E: std::error::Error + 'static>(
 /// is done, two thread wake-ups per region (system calls and context switches, on a VM often an
 /// interrupt to another virtual CPU). From a pool thread a region starts at once on the
 /// calling thread. Work is split and summed the same way in either case, so results do not
-/// change. Measured (benches/README.md, 6 December 2026): `step/2d_256k` 20.1 → 18.0 ms on one
-/// thread, `tlmpm_step/2d_16k` 30.2 → 25.1 ms on two.
+/// change. Measured on 2 threads (benches/README.md, 6 December 2026): `tlmpm_step/2d_16k`
+/// 28.4 → 24.5 ms; the CLI's `diq_dam_break_2d` scene, whose pressure solves run many short
+/// parallel vector operations, 13.0–13.4 → 6.0–6.2 s, with the CLI's whole run on the pool too.
 ///
 /// The step then runs on the stack of a pool thread, the standard library's default for
 /// spawned threads (2 MiB unless `RUST_MIN_STACK` says otherwise), like every parallel closure
@@ -394,8 +395,8 @@ pub struct Monitor {
 }
 
 /// One solver, as the CLI, the validation crate and the benchmarks drive it. `D` is the
-/// dimension (2 or 3).
-pub trait Solver<const D: usize>: fmt::Debug
+/// dimension (2 or 3). `Send`, so that a driver can run it on a pool thread ([`on_pool`]).
+pub trait Solver<const D: usize>: fmt::Debug + Send
 where
     Dim<D>: DimOps<D>,
 {
