@@ -30,7 +30,7 @@
 //! a fixed order, scatters back to nodes are serial, and CG sums in index order: results are
 //! bitwise identical for any thread count.
 
-use mpm_core::{Real, Vector};
+use mpm_core::{on_pool, Real, Vector};
 use mpm_linalg::{
     conjugate_gradient, CellLabel, CgError, CgParams, CgWorkspace, CholeskyError,
     IncompleteCholesky, InitialGuess, Jacobi, MultigridPreconditioner, OnIterationCap,
@@ -530,8 +530,21 @@ impl<const D: usize> PressureSystem<D> {
         Ok(())
     }
 
-    /// Solves `A λ = rhs` (λ in Pa) with the method the system was assembled for.
+    /// Solves `A λ = rhs` (λ in Pa) with the method the system was assembled for, on a thread
+    /// of the rayon pool ([`on_pool`]: each conjugate gradient iteration runs several short
+    /// parallel vector operations, which would otherwise each be handed over from a caller
+    /// outside the pool; inside a solver's step it already runs on the pool).
     pub fn solve(
+        &mut self,
+        rhs: &[Real],
+        lambda: &mut Vec<Real>,
+        params: &PressureParams,
+    ) -> Result<PressureInfo, PressureError> {
+        on_pool(|| self.solve_here(rhs, lambda, params))
+    }
+
+    /// [`Self::solve`] on the calling thread.
+    fn solve_here(
         &mut self,
         rhs: &[Real],
         lambda: &mut Vec<Real>,
