@@ -145,7 +145,7 @@ pub fn run(opts: &RunOptions) -> Result<(), CliError> {
     };
     prepare_output(&scene, &out, from_scene)?;
     // The whole run on a pool thread: each step then starts without a hand-over from this
-    // thread (see `mpm_core::on_pool`), and so do the parallel parts of the outputs.
+    // thread (see `mpm_core::on_pool`).
     match built {
         AnyBuilt::D2(b) => on_pool(|| Runner::new(*b, &scene, &out, opts)?.run()),
         AnyBuilt::D3(b) => on_pool(|| Runner::new(*b, &scene, &out, opts)?.run()),
