@@ -47,9 +47,10 @@ impl FluidMaterial {
     /// `p = (K/γ)((ρ/ρ₀)^γ − 1)` gives `dp/dρ = (K/ρ₀)(ρ/ρ₀)^{γ−1} = K J^{1−γ}/ρ₀ = K J^{−γ}/ρ`.
     /// Returns +∞ for J ≤ 0 (see [`Self::pressure`]).
     ///
-    /// Inline: the explicit G2P evaluates it for every fluid particle (its signal speed), and
-    /// as a call across crates it made G2P save and reload its live floating-point registers
-    /// around it (`benches/README.md`, 6 December 2026).
+    /// Inline: a per-particle loop that needs each particle's signal speed calls it once per
+    /// fluid particle, and as a call across crates it makes that loop save and reload its live
+    /// floating-point registers around it (measured on the explicit G2P, `benches/README.md`,
+    /// 6 December 2026).
     #[inline]
     pub fn sound_speed(&self, j: Real) -> Real {
         if j <= 0.0 {

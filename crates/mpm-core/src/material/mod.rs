@@ -98,8 +98,7 @@ impl SolidMaterial {
     /// P-wave speed `√((λ + 2μ)/ρ)` (m/s) in the current configuration, with hardening and the
     /// density change `ρ = ρ₀/J` (J clamped below at 0.1 so the bound stays finite).
     ///
-    /// Inline for the same reason as [`FluidMaterial::sound_speed`]: the explicit G2P
-    /// evaluates it for every solid particle.
+    /// Inline for the same reason as [`FluidMaterial::sound_speed`], for solid particles.
     #[inline]
     pub fn wave_speed(&self, j: Real, state: &PlasticState) -> Real {
         let lame = self.hardened(state).lame();
