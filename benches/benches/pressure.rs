@@ -23,7 +23,9 @@
 use criterion::{Criterion, SamplingMode};
 use mpm_core::boundary::{Boundaries, Contact, DomainWalls};
 use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
-use mpm_core::{Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Solver, Vector};
+use mpm_core::{
+    on_pool, Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Solver, Vector,
+};
 use mpm_diq::{
     Constraints, DiqCoupled, DiqFluid, DiqParams, PressureMethod, PressureParams, PressureSystem,
     SolidParams, UnknownKind,
@@ -73,8 +75,15 @@ enum Method {
 }
 
 /// Set-up and CG solve of the `n³` problem; returns the iterations and the true final relative
-/// residual.
+/// residual. Runs on a pool thread, as the solvers' pressure solves do (they are called inside a
+/// step, see `mpm_core::on_pool`): from the benchmark's main thread each of CG's parallel vector
+/// operations would otherwise start with a hand-over to the pool.
 fn solve(n: usize, method: Method, b: &[f64]) -> (u32, f64) {
+    on_pool(|| solve_here(n, method, b))
+}
+
+/// [`solve`] on the calling thread.
+fn solve_here(n: usize, method: Method, b: &[f64]) -> (u32, f64) {
     let grid = PoissonGrid::<3>::dirichlet_box([n, n, n]).expect("valid grid");
     let mut op = PoissonOperator::new(&grid);
     let mut precond: Box<dyn Preconditioner<f64>> = match method {
