@@ -416,7 +416,7 @@ fn persistent_and_flip_transfers_run_in_tlmpm_and_persistent_is_refused_elsewher
     assert!(err.contains("solver = \"tlmpm\""), "{err}");
 }
 
-/// Issue 14 item 1: a `[[clamp_planes]]` clamp holds the beam on the plane X = 0 exactly, on a
+/// A `[[clamp_planes]]` clamp holds the beam on the plane X = 0 exactly, on a
 /// grid with a node layer there and on one offset by half a cell, so both give the same first
 /// swing; fixing the nodes at X ≤ 0 leaves the clamp soft by O(Δx) (a larger swing).
 #[test]

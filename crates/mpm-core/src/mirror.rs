@@ -5,7 +5,7 @@
 //! wall's reaction, which acts on every basis function that reaches the plane, is missing from
 //! those nodes: the discrete equilibrium next to a wall is inconsistent. In the CB-Geo hydrostatic
 //! column the mean pressure of the bottom cell layer was 9–10 % off at every Δx, and the error did
-//! not shrink (issue 14, item 1).
+//! not shrink.
 //!
 //! **What.** The wall plane is the innermost wall node layer (`thickness − 1` nodes from the face).
 //! The wall layers beyond it are ghosts: node `w − k` is the mirror image of node `w + k`. Each

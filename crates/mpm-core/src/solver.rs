@@ -298,7 +298,7 @@ pub fn retry_halving<T, E: std::error::Error + 'static>(
 /// is done, two thread wake-ups per region (system calls and context switches, on a VM often an
 /// interrupt to another virtual CPU). From a pool thread a region starts at once on the
 /// calling thread. Work is split and summed the same way in either case, so results do not
-/// change. Measured on 2 threads (benches/README.md, 6 December 2026): `tlmpm_step/2d_16k`
+/// change. Measured on 2 threads: `tlmpm_step/2d_16k`
 /// 28.4 → 24.5 ms; the CLI's `diq_dam_break_2d` scene, whose pressure solves run many short
 /// parallel vector operations, 13.0–13.4 → 6.0–6.2 s, with the CLI's whole run on the pool too.
 ///

@@ -88,7 +88,7 @@ where
     /// Asks for the columns [`Self::impulse`] and the stencil will read of particle `q`, in 3D
     /// only. P2G reads its particles in binned order, so their data comes in runs of a block
     /// row; announcing each particle some places ahead lets the loads of the next run start
-    /// early. Measured (5 December 2026, medians of interleaved runs): `p2g/3d_256k` 25.4 →
+    /// early. Measured (medians of interleaved runs): `p2g/3d_256k` 25.4 →
     /// 24.7 ms on 1 thread, 13.56 → 12.87 ms on 2. In 2D, with half the bytes per particle, the
     /// hints cost more than they saved (`p2g/2d_256k` 10.1 → 11.6 ms, 1 thread), so there are
     /// none.

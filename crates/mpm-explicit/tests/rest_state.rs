@@ -90,7 +90,7 @@ struct Record {
     peak_kinetic: Real,
     final_kinetic: Real,
     pressure_range: Real,
-    /// The last value of that error (the floor's error, issue 14 item 1).
+    /// The last value of that error (the floor's error).
     final_error: Real,
 }
 
@@ -158,7 +158,7 @@ fn local_damping_settles_the_hydrostatic_column_that_oscillates_without_it() {
     assert!(damped.pressure_range < 0.01, "{}", damped.pressure_range);
 }
 
-/// Issue 14 item 1: with a wall layer of nodes the B-splines of the nodes just above the floor
+/// With a wall layer of nodes the B-splines of the nodes just above the floor
 /// miss the floor's reaction and the bottom layer's mean pressure at rest is about 10 % off;
 /// mirrored ghost layers make the discrete basis satisfy the wall condition on the plane and the
 /// error drops below 0.5 % with these 2 × 2 particles per cell (measured 0.28 %; with CB-Geo's

@@ -73,7 +73,7 @@ impl<const D: usize> FixedRegion<D> {
     }
 }
 
-/// A clamp that holds exactly on a plane of the reference grid (issue 14, item 1): every
+/// A clamp that holds exactly on a plane of the reference grid: every
 /// displacement component vanishes on the plane `X_axis = position`, the material lying on the
 /// side `above` (`X_axis > position`) or below it. The plane must lie on a node layer or midway
 /// between two; both hold the clamp exactly and give the same answer (a 2D cantilever's first

@@ -479,7 +479,7 @@ mod tests {
         assert_eq!(c.dofs.len(), 35);
     }
 
-    /// Issue 14 item 1: a clamp plane folds the basis so that every weight is
+    /// A clamp plane folds the basis so that every weight is
     /// `N_k(X) − N_k(X̄)`, `X̄` the particle's mirror image, which is zero on the plane: the
     /// plane holds exactly whatever the node values. Checked on node layers and midway between
     /// two, for the quadratic and the cubic spline, weights and gradients.

@@ -672,7 +672,7 @@ pub mod stiff_limit {
     }
 }
 
-/// Stability sweeps of the coupling (issue 12): an elastic block dropped into a tank of water,
+/// Stability sweeps of the coupling: an elastic block dropped into a tank of water,
 /// over the solid's stiffness, Poisson's ratio, the density ratio and the largest step.
 pub mod stability {
     use super::*;

@@ -1,5 +1,5 @@
 //! A long layer of cohesionless sand on a rough slope, just below and just above its critical
-//! angle: plane-strain Drucker–Prager matched to Mohr–Coulomb in 2D (issue 14, item 3).
+//! angle: plane-strain Drucker–Prager matched to Mohr–Coulomb in 2D.
 //!
 //! Set-up: a layer H = 0.1 m thick and L = 3 m long of Hencky–Drucker–Prager sand (E =
 //! 3.537e5 Pa, ν = 0.3, ρ = 2200 kg/m², constant friction angle φ = 19.8°, no cohesion, volume
@@ -48,7 +48,7 @@ use std::time::Duration;
 /// Case name.
 pub const NAME: &str = "granular_slope";
 
-/// Friction angle φ (degrees), the one of the column collapse in issue 14.
+/// Friction angle φ (degrees), the one of the Bui et al. (2008) column collapse.
 pub const PHI: Real = 19.8;
 /// Layer thickness H (m).
 const THICKNESS: Real = 0.1;

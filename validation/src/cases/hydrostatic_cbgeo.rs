@@ -4,12 +4,12 @@
 //! Set-up of CB-Geo's benchmark (0.2 m wide, 0.1 m high, ρ = 1800 kg/m², K = 1e6 Pa, 5 × 5
 //! particles per cell, g = 9.81 m/s², slip walls); a Tait fluid (γ = 7, inviscid) stands for
 //! CB-Geo's Newtonian fluid. Without damping the column oscillates by tens of per cent of ρgh
-//! and never settles (issue 14, item 2), so a rest state — and with it this measure — was out of
+//! and never settles, so a rest state — and with it this measure — was out of
 //! reach. The measure: the mean pressure of the particles in the bottom cell layer (y < Δx)
 //! against the mean of ρ g (h − y) over the same particles, h the initial height, as CB-Geo
 //! reports it (4.85 %, 2.33 % and 1.08 % at Δx = 0.01, 0.005 and 0.0025 m).
 //!
-//! The walls are mirrored (`WallTreatment::Mirror`, issue 14 item 1): with wall node layers the
+//! The walls are mirrored (`WallTreatment::Mirror`): with wall node layers the
 //! measure read +9.7 %, +9.3 % and +9.1 %, not falling; mirrored, it reads about 5·10⁻⁵ at every
 //! Δx. That floor is the measure's own bias: it compares with `ρ g (h − y)` at the particles'
 //! current heights, but the column shortens as it compresses. The case's `error` is therefore
@@ -238,9 +238,9 @@ pub fn case(mode: Mode) -> CaseResult {
         let falling =
             by_dx.windows(2).all(|w| w[1].1 < w[0].1) && fit_rate(&by_dx).is_some_and(|r| r > 0.0);
         let mut note = format!(
-            "Acceptance: (issue 14 item 2, the rest state) at every Δx the error varies by less \
+            "Acceptance: (the rest state) at every Δx the error varies by less \
              than 1 % over the last {WINDOW} s and no particle moves faster than 1 % of √(g h) \
-             at the end ({}); (item 1, the walls) CB-Geo's measure is at most half of CB-Geo's \
+             at the end ({}); (the walls) CB-Geo's measure is at most half of CB-Geo's \
              value at each Δx ({}) and the error against the settled column falls with Δx ({}).",
             if rest { "holds" } else { "does not hold" },
             if half { "holds" } else { "does not hold" },

@@ -1,4 +1,4 @@
-//! What caps the explicit solver's order of convergence (issue 14, item 6): the 2D
+//! What caps the explicit solver's order of convergence: the 2D
 //! manufactured solution of [`super::mms`] rerun with one ingredient changed at a time.
 //!
 //! The variants, each a sweep over Δx with the rate fitted to the maximum RMS displacement error:
@@ -11,7 +11,7 @@
 //! - `cubic`: the cubic B-spline (kernel order and its truncation at the walls);
 //! - `pic`: PIC transfer (transfer dissipation).
 //!
-//! - `mirror walls`: the faces as mirrored slip walls (`WallTreatment::Mirror`, issue 14 item 1)
+//! - `mirror walls`: the faces as mirrored slip walls (`WallTreatment::Mirror`)
 //!   instead of slip colliders holding the nodes on and beyond them. The solution is odd in the
 //!   normal and even in the tangential components across every face, so mirrored walls leave
 //!   no boundary closure at all;

@@ -49,8 +49,7 @@ impl FluidMaterial {
     ///
     /// Inline: a per-particle loop that needs each particle's signal speed calls it once per
     /// fluid particle, and as a call across crates it makes that loop save and reload its live
-    /// floating-point registers around it (measured on the explicit G2P, `benches/README.md`,
-    /// 6 December 2026).
+    /// floating-point registers around it (measured on the explicit G2P).
     #[inline]
     pub fn sound_speed(&self, j: Real) -> Real {
         if j <= 0.0 {

@@ -126,8 +126,8 @@ impl SolidMaterial {
     /// `&f_trial` of its per-particle update record, the record's fields and the trial F went
     /// through the stack on the way to the guard check for every particle, plastic or not, some
     /// stored by halves and read whole, which the CPU cannot forward. By value, less of the
-    /// record goes through memory (1 thread, interleaved, 5 December 2026): `g2p/2d_256k`
-    /// 9.56 → 8.82 ms, `g2p/3d_256k` 25.09 → 24.48 ms, the same bits.
+    /// record goes through memory (1 thread, interleaved runs): `g2p/2d_256k` 9.56 → 8.82 ms,
+    /// `g2p/3d_256k` 25.09 → 24.48 ms, the same bits.
     #[inline(never)]
     pub fn return_mapping<const D: usize>(
         &self,
