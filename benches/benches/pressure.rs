@@ -212,7 +212,7 @@ fn dam_break_3d(steps: usize) -> DiqFluid<3> {
     let mut fluid =
         DiqFluid::new(spec, DiqParams::default(), vec![water], walls, ps).expect("valid set-up");
     for _ in 0..steps {
-        fluid.advance().expect("stable step");
+        fluid.step().expect("stable step");
     }
     fluid
 }

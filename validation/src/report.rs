@@ -2,7 +2,7 @@
 //! Markdown report, machine description and the timed stepping helper.
 
 use mpm_core::StepInfo;
-use mpm_core::{Dim, DimOps, Instability, Real};
+use mpm_core::{Dim, DimOps, Real, Solver, StepError};
 use mpm_explicit::ExplicitSolver;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -206,7 +206,7 @@ pub use mpm_core::solver::nan_max;
 pub fn timed_step<const D: usize>(
     solver: &mut ExplicitSolver<D>,
     wall: &mut Duration,
-) -> Result<StepInfo, Instability>
+) -> Result<StepInfo, StepError>
 where
     Dim<D>: DimOps<D>,
 {

@@ -7,7 +7,7 @@
 
 use crate::cases::{bar, disk, RunError};
 use crate::report::{progress, Mode, Outcome, StabilityRecord};
-use mpm_core::{Dim, DimOps, Real};
+use mpm_core::{Dim, DimOps, Real, Solver};
 use mpm_explicit::ExplicitSolver;
 
 /// Energy growth factor above which a finished run counts as blown up.

@@ -9,7 +9,7 @@ use std::path::Path;
 /// Largest scene file read: 16 MiB (scenes are a few kilobytes).
 pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 
-/// Largest OBJ mesh file read: 256 MiB (a mesh of [`crate::mesh::MAX_TRIANGLES`] triangles
+/// Largest OBJ mesh file read: 256 MiB (a mesh of [`mpm_core::sampling::MAX_TRIANGLES`] triangles
 /// takes about 100 MB of OBJ text).
 pub const MAX_MESH_BYTES: u64 = 256 << 20;
 
@@ -42,4 +42,12 @@ pub fn read_text(path: &Path, limit: u64) -> Result<String, String> {
         return Err(too_large(bytes.len() as u64));
     }
     String::from_utf8(bytes).map_err(|_| "not UTF-8 text".into())
+}
+
+/// Reads an OBJ triangle mesh file (a regular file of at most [`MAX_MESH_BYTES`]). Errors are
+/// one-line messages naming the file and, for syntax errors, the line.
+pub fn read_obj(path: &Path) -> Result<mpm_core::sampling::TriMesh, String> {
+    let text = read_text(path, MAX_MESH_BYTES)
+        .map_err(|e| format!("cannot read mesh file {}: {e}", path.display()))?;
+    mpm_core::sampling::parse_obj(&text).map_err(|e| format!("mesh file {}: {e}", path.display()))
 }

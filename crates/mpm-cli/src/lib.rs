@@ -8,7 +8,6 @@ pub mod error;
 pub mod font;
 pub mod info;
 pub mod input;
-pub mod mesh;
 pub mod render;
 pub mod run;
 pub mod scene;

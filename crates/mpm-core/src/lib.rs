@@ -30,6 +30,7 @@ pub use kernel::{AxisStencil, Kernel, Stencil};
 pub use material::Material;
 pub use math::{Angular, Dim, DimOps, Matrix, Real, Vector};
 pub use particles::{Columns, ParticleExtra, ParticleInit, Particles};
+pub use sampling::{Body, ParticlesBuilder, Sampling, Shape};
 pub mod diagnostics;
 pub mod timestep;
 pub mod volume;
@@ -40,7 +41,7 @@ mod test_util;
 pub use columns::{Column, ColumnData};
 pub use diagnostics::Diagnostics;
 pub use solver::{
-    on_pool, retry_halving, Failure, Monitor, PlannedStage, SolveInfo, Solver, SolverState,
-    StagePlan, StageTimes, StepError, StepInfo, StepStart,
+    on_pool, reached, retry_halving, run_until_with, Failure, Monitor, PlannedStage, RunInfo,
+    SolveInfo, Solver, SolverState, StagePlan, StageTimes, StepError, StepInfo, StepStart,
 };
 pub use timestep::{OnInstability, TimeStepPolicy};

@@ -18,6 +18,7 @@ use crate::math::{Dim, DimOps, Real};
 use crate::particles::Particles;
 use crate::timestep::OnInstability;
 use std::fmt;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use thiserror::Error;
 
@@ -185,8 +186,9 @@ pub enum StepError<E: std::error::Error + 'static = SolveError> {
     },
 }
 
-impl<E: std::error::Error + 'static> StepError<E> {
-    /// The same error with the solve failure turned into a [`SolveError`] named `solver`.
+impl<E: std::error::Error + Send + Sync + 'static> StepError<E> {
+    /// The same error with the solve failure turned into a [`SolveError`] named `solver`,
+    /// which keeps the typed failure for [`SolveError::cause`].
     pub fn erase(self, solver: &'static str) -> StepError {
         match self {
             StepError::Instability(i) => StepError::Instability(i),
@@ -206,21 +208,50 @@ impl<E: std::error::Error + 'static> StepError<E> {
                 source: SolveError {
                     solver,
                     message: source.to_string(),
+                    cause: Some(Arc::new(source)),
                 },
             },
         }
     }
 }
 
-/// A failed solve, solver-independent: which solve and what it reported.
-#[derive(Clone, Debug, PartialEq, Eq, Error)]
+/// A failed solve, solver-independent: which solve and what it reported, with the solver's
+/// own typed error for [`SolveError::cause`].
+#[derive(Clone, Debug, Error)]
 #[error("{solver} failed: {message}")]
 pub struct SolveError {
     /// Which solve, e.g. `Newton`.
     pub solver: &'static str,
     /// What it reported.
     pub message: String,
+    cause: Option<Arc<dyn std::error::Error + Send + Sync>>,
 }
+
+impl SolveError {
+    /// A failure of `solver` reported as `message`, without a typed cause.
+    pub fn new(solver: &'static str, message: impl Into<String>) -> Self {
+        Self {
+            solver,
+            message: message.into(),
+            cause: None,
+        }
+    }
+
+    /// The solver's own error, when it is an `E` (e.g. `mpm_tlmpm::NewtonError`).
+    pub fn cause<E: std::error::Error + 'static>(&self) -> Option<&E> {
+        self.cause.as_deref()?.downcast_ref::<E>()
+    }
+}
+
+/// Equal when the solve and the message are: the typed causes are compared through their
+/// messages.
+impl PartialEq for SolveError {
+    fn eq(&self, other: &Self) -> bool {
+        self.solver == other.solver && self.message == other.message
+    }
+}
+
+impl Eq for SolveError {}
 
 /// Where in a run a step starts: the step number and the time, for error reports.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -437,6 +468,11 @@ where
     /// the error after an aborted step.
     fn step(&mut self) -> Result<StepInfo, StepError>;
 
+    /// Steps until the time reaches `t_end` (s), as [`run_until_with`] without an observer.
+    fn run_until(&mut self, t_end: Real) -> Result<RunInfo, StepError> {
+        run_until_with(self, t_end, |_, _| {})
+    }
+
     /// Wall time per planned stage, in plan order.
     fn stage_times(&self) -> Vec<StageTime>;
 
@@ -479,6 +515,54 @@ where
             _ => columns::particle_column(self.particles(), name),
         }
     }
+}
+
+/// What a run of steps did ([`run_until_with`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RunInfo {
+    /// Accepted steps.
+    pub steps: u64,
+    /// dt/2 retries over all steps.
+    pub retries: u32,
+    /// Smallest and largest accepted dt (s); zero when no step was taken.
+    pub dt_range: (Real, Real),
+    /// Wall time spent in the steps (the observer's time not counted).
+    pub wall: Duration,
+}
+
+/// Whether `time` (s) has reached `t_end` (s), allowing round-off of 10⁻¹² relative (so that
+/// 300 steps of 10⁻³ s reach 0.3 s whichever way their sum rounds).
+pub fn reached(time: Real, t_end: Real) -> bool {
+    time >= t_end - 1e-12 * t_end.abs().max(1.0)
+}
+
+/// Steps `solver` until its time has [`reached`] `t_end` (s), calling `observe` with the solver
+/// and the step's [`StepInfo`] after each accepted step; returns at the first failed step with
+/// its error. A solver already at `t_end` takes no step.
+pub fn run_until_with<const D: usize, S>(
+    solver: &mut S,
+    t_end: Real,
+    mut observe: impl FnMut(&S, &StepInfo),
+) -> Result<RunInfo, StepError>
+where
+    S: Solver<D> + ?Sized,
+    Dim<D>: DimOps<D>,
+{
+    let mut run = RunInfo::default();
+    while !reached(solver.time(), t_end) {
+        let t = Instant::now();
+        let info = solver.step()?;
+        run.wall += t.elapsed();
+        run.dt_range = if run.steps == 0 {
+            (info.dt, info.dt)
+        } else {
+            (run.dt_range.0.min(info.dt), run.dt_range.1.max(info.dt))
+        };
+        run.steps += 1;
+        run.retries += info.retries;
+        observe(solver, &info);
+    }
+    Ok(run)
 }
 
 /// [`FieldInfo`] of the particle columns `names` (as [`crate::Columns::names`] lists them).

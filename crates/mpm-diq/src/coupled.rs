@@ -1492,13 +1492,7 @@ where
         self.fluid.displacement_bound(vmax)
     }
 
-    /// Advances one step, with the solve errors typed. The step runs on a thread of the rayon
-    /// pool ([`on_pool`]).
-    pub fn advance(&mut self) -> Result<StepInfo, StepError<CoupledError>> {
-        on_pool(|| self.advance_step())
-    }
-
-    /// [`Self::advance`] on the calling thread.
+    /// [`Solver::step`] on the calling thread, with the solve errors typed.
     fn advance_step(&mut self) -> Result<StepInfo, StepError<CoupledError>> {
         let start = StepStart {
             step: self.steps,
@@ -1684,8 +1678,10 @@ where
         self.plan.clone()
     }
 
+    /// Advances one step; a failed solve is a [`StepError::Solve`] with the
+    /// [`CoupledError`]'s message. The step runs on a thread of the rayon pool ([`on_pool`]).
     fn step(&mut self) -> Result<StepInfo, StepError> {
-        self.advance().map_err(|e| e.erase("coupled"))
+        on_pool(|| self.advance_step()).map_err(|e| e.erase("coupled"))
     }
 
     fn stage_times(&self) -> Vec<StageTime> {

@@ -301,7 +301,7 @@ fn momentum_is_conserved(interface: InterfaceQuadrature) {
     let p0 = momentum(&s);
     let mut touched = 0;
     for _ in 0..60 {
-        let info = s.advance().unwrap();
+        let info = s.step().unwrap();
         touched += info
             .events
             .iter()
@@ -337,11 +337,11 @@ fn assert_bitwise_across_threads_and_resume(
         crate::tests::with_threads(threads, || {
             let mut s = make();
             for _ in 0..steps {
-                s.advance().unwrap();
+                s.step().unwrap();
             }
             let mid = s.checkpoint();
             for _ in 0..steps {
-                s.advance().unwrap();
+                s.step().unwrap();
             }
             (mid, s.checkpoint())
         })
@@ -353,7 +353,7 @@ fn assert_bitwise_across_threads_and_resume(
     resumed.restore(&mid1).unwrap();
     assert_eq!(resumed.steps(), steps);
     for _ in 0..steps {
-        resumed.advance().unwrap();
+        resumed.step().unwrap();
     }
     assert_eq!(resumed.checkpoint(), end1, "resume from checkpoint");
     resumed
@@ -429,7 +429,7 @@ fn still_water_around_a_clamped_block_stays_at_rest_with_the_node_interface_rows
     let steps = |interface| {
         let mut s = submerged(16, (1e8, 1.0), true, interface);
         for _ in 0..5 {
-            s.advance().unwrap();
+            s.step().unwrap();
         }
         water_and_block_speed(&s).0
     };
@@ -446,7 +446,7 @@ fn a_neutrally_buoyant_stiff_block_stays_put_with_the_node_interface_rows() {
     let run = |interface| {
         let mut s = submerged(16, (1e8, 1.0), false, interface);
         while s.time() < 0.25 {
-            s.advance().unwrap();
+            s.step().unwrap();
         }
         water_and_block_speed(&s)
     };
@@ -513,7 +513,7 @@ fn solids_only_plan_has_no_fluid_stage() {
     };
     let mut t = 0.0;
     for _ in 0..10 {
-        t += s.advance().unwrap().dt;
+        t += s.step().unwrap().dt;
     }
     assert!(
         (com(&s) + 9.81 * t).abs() <= 1e-9 * 9.81 * t,
@@ -559,7 +559,7 @@ fn fluid_does_not_enter_a_slab_resting_on_it() {
     .unwrap();
     let start = lowest(&s);
     while s.time() < 0.5 {
-        s.advance().unwrap();
+        s.step().unwrap();
     }
     let p = s.particles();
     let top_fluid = s
@@ -644,7 +644,7 @@ fn colliding_blocks(contact: bool) -> (Real, Real, Real) {
     };
     let mut min_gap = Real::INFINITY;
     while s.time() < 0.3 {
-        s.advance().unwrap();
+        s.step().unwrap();
         let p = s.particles();
         for a in 0..first_right {
             for b in first_right..solids {
@@ -723,7 +723,7 @@ fn a_block_sinks_onto_the_tank_floor_and_stays_above_it() {
     let mut deepest = Real::INFINITY;
     let mut fastest: Real = 0.0;
     while s.time() < 1.0 {
-        s.advance().unwrap();
+        s.step().unwrap();
         deepest = deepest.min(lowest(&s));
         fastest = fastest.max(-mean_vy(&s));
     }
@@ -807,7 +807,7 @@ fn a_stiff_block_hitting_water_stays_rigid_with_the_coupling_iteration() {
         let mut s = stiff_drop(1e9, passes);
         let mut wet = false;
         while s.time() < 0.3 {
-            let info = s.advance().unwrap();
+            let info = s.step().unwrap();
             wet |= info
                 .events
                 .iter()
@@ -836,7 +836,7 @@ fn a_solid_leaving_the_fluid_box_is_no_interface_point() {
     let mut s = dropped_block(0.25, block, (5000.0, 1e5), v, SolidParams::default());
     let mut below = false;
     while s.time() < 0.5 && !below {
-        s.advance().unwrap();
+        s.step().unwrap();
         let p = s.particles();
         below = s.solid_indices().iter().any(|&q| p.x[q][1] < -dx);
     }
@@ -893,7 +893,7 @@ fn a_ulmpm_solid_updates_its_reference_in_water_and_conserves_momentum() {
     let p0 = momentum(&s);
     let (mut updates, mut touched, mut drift) = (0u64, 0u64, 0.0 as Real);
     for _ in 0..60 {
-        let info = s.advance().unwrap();
+        let info = s.step().unwrap();
         for &(name, n) in &info.events {
             match name {
                 "reference_updates" => updates += n,
@@ -911,7 +911,7 @@ fn a_ulmpm_solid_updates_its_reference_in_water_and_conserves_momentum() {
     // An elastic solid moves as with a fixed reference: the same run in total Lagrangian form.
     let mut tl = collision(false);
     for _ in 0..60 {
-        tl.advance().unwrap();
+        tl.step().unwrap();
     }
     let (a, b) = (s.particles(), tl.particles());
     let (mut dx, mut dj) = (0.0 as Real, 0.0 as Real);
@@ -932,11 +932,11 @@ fn a_ulmpm_coupled_run_is_bitwise_across_threads_and_a_resume_after_an_update() 
         crate::tests::with_threads(threads, || {
             let mut s = aulmpm_collision();
             while s.solid().reference_updates() == 0 {
-                s.advance().unwrap();
+                s.step().unwrap();
             }
             let mid = s.checkpoint();
             for _ in 0..10 {
-                s.advance().unwrap();
+                s.step().unwrap();
             }
             (mid, s.checkpoint(), s.solid().reference_updates())
         })
@@ -948,7 +948,7 @@ fn a_ulmpm_coupled_run_is_bitwise_across_threads_and_a_resume_after_an_update() 
     resumed.restore(&mid1).unwrap();
     assert_eq!(resumed.solid().reference_updates(), 1);
     for _ in 0..10 {
-        resumed.advance().unwrap();
+        resumed.step().unwrap();
     }
     assert_eq!(resumed.checkpoint(), end1, "resume from checkpoint");
     assert_eq!(resumed.solid().reference_updates(), updates);
@@ -1016,7 +1016,7 @@ fn plastic_flow_moves_the_soil_pressure_with_the_elastic_volume() {
     // det F_E stays below (1.0075)² ≈ 1.015. With it the gap is what is left of the cell-wise
     // pressure against particle-wise return mappings (measured: mean 3.7e-3, largest 0.012).
     let mut s = dilating_soil(1.0);
-    s.advance().unwrap();
+    s.step().unwrap();
     let (mean, gap, top) = remap_gap(&s);
     assert!(top <= 1.0075f64.powi(2) + 1e-12, "det F_E {top}");
     assert!(
@@ -1028,7 +1028,7 @@ fn plastic_flow_moves_the_soil_pressure_with_the_elastic_volume() {
     let mut s = dilating_soil(1e-4);
     let mut updates = 0;
     for _ in 0..5 {
-        let info = s.advance().unwrap();
+        let info = s.step().unwrap();
         updates += info
             .events
             .iter()
@@ -1134,7 +1134,7 @@ fn a_film_slides_freely_down_a_clamped_wall_with_the_node_rows() {
     )
     .unwrap();
     while s.time() < 0.15 {
-        s.advance().unwrap();
+        s.step().unwrap();
     }
     let p = s.particles();
     let film = s.fluid_indices();
@@ -1221,7 +1221,7 @@ fn a_block_released_on_viscous_water_settles_at_its_draft_with_the_node_rows() {
     };
     let (mut sum, mut count, mut swing) = (0.0, 0, (Real::INFINITY, Real::NEG_INFINITY));
     while s.time() < 2.0 {
-        s.advance().unwrap();
+        s.step().unwrap();
         if s.time() > 1.5 {
             let d = draft(&s);
             sum += d;

@@ -1165,13 +1165,7 @@ where
         Ok(Some(info))
     }
 
-    /// Advances one step (see [`Solver::step`]), with the pressure-solve error typed. The step
-    /// runs on a thread of the rayon pool ([`on_pool`]).
-    pub fn advance(&mut self) -> Result<StepInfo, StepError<PressureError>> {
-        on_pool(|| self.advance_step())
-    }
-
-    /// [`Self::advance`] on the calling thread.
+    /// [`Solver::step`] on the calling thread, with the pressure-solve error typed.
     fn advance_step(&mut self) -> Result<StepInfo, StepError<PressureError>> {
         let start = StepStart {
             step: self.steps,
@@ -1249,8 +1243,10 @@ where
         self.plan.clone()
     }
 
+    /// Advances one step; a failed pressure solve is a [`StepError::Solve`] with the
+    /// [`PressureError`]'s message. The step runs on a thread of the rayon pool ([`on_pool`]).
     fn step(&mut self) -> Result<StepInfo, StepError> {
-        self.advance().map_err(|e| e.erase("pressure"))
+        on_pool(|| self.advance_step()).map_err(|e| e.erase("pressure"))
     }
 
     fn stage_times(&self) -> Vec<StageTime> {

@@ -189,7 +189,7 @@ fn hydrostatic_column_stays_at_rest_with_linear_pressure() {
     let mut fluid = column(n, h, PressureMethod::IncompleteCholesky);
     let mut t = 0.0;
     while t < 1.0 - 1e-12 {
-        let info = fluid.advance().unwrap();
+        let info = fluid.step().unwrap();
         t = info.time;
         assert_eq!(info.solves[0].name, "pressure");
         assert!(info.solves[0].residual <= 1e-8);
@@ -232,7 +232,7 @@ fn projection_leaves_divergence_at_solver_tolerance() {
         )
         .unwrap();
         for _ in 0..3 {
-            let info = fluid.advance().unwrap();
+            let info = fluid.step().unwrap();
             assert!(info.solves[0].residual <= 1e-8, "{method:?}");
         }
         // The cell divergence relative to the flow's own scale U/Δx.
@@ -250,7 +250,7 @@ fn projection_leaves_divergence_at_solver_tolerance() {
 #[test]
 fn free_surface_pressure_vanishes_and_enclosed_fluid_is_pinned() {
     let mut fluid = column(16, 0.5, PressureMethod::Multigrid);
-    fluid.advance().unwrap();
+    fluid.step().unwrap();
     // Top cell pressure is at most ρ g Δx (the surface cell's own depth), bottom ≈ ρ g h.
     let dx = 1.0 / 16.0;
     let ps = fluid.particles();
@@ -300,7 +300,7 @@ fn capped_cg_is_a_typed_solve_error() {
     )
     .unwrap();
     let x0 = fluid.particles().x.clone();
-    match fluid.advance() {
+    match fluid.step() {
         Err(StepError::Solve { stage, source, .. }) => {
             assert_eq!(stage, mpm_core::Stage::Solve);
             assert!(source.to_string().contains("did not converge"), "{source}");
@@ -330,7 +330,7 @@ fn position_correction_bounds_volume_drift() {
         let v0 = f.fluid_volume();
         let mut worst: Real = 0.0;
         while f.time() < 0.6 {
-            f.advance().unwrap();
+            f.step().unwrap();
             let d = f.fluid_volume() / v0 - 1.0;
             worst = worst.max(d.abs());
         }
@@ -349,11 +349,11 @@ fn assert_bitwise_across_threads_and_resume(make: impl Fn() -> DiqFluid<2> + Syn
         with_threads(threads, || {
             let mut f = make();
             for _ in 0..steps {
-                f.advance().unwrap();
+                f.step().unwrap();
             }
             let state = f.checkpoint();
             for _ in 0..steps {
-                f.advance().unwrap();
+                f.step().unwrap();
             }
             (state, f.checkpoint())
         })
@@ -364,7 +364,7 @@ fn assert_bitwise_across_threads_and_resume(make: impl Fn() -> DiqFluid<2> + Syn
     let mut resumed = make();
     resumed.restore(&mid1).unwrap();
     for _ in 0..steps {
-        resumed.advance().unwrap();
+        resumed.step().unwrap();
     }
     assert_eq!(resumed.checkpoint(), end1, "resume from checkpoint");
 }
@@ -390,7 +390,7 @@ fn three_dimensional_column_is_hydrostatic() {
     )
     .unwrap();
     for _ in 0..20 {
-        fluid.advance().unwrap();
+        fluid.step().unwrap();
     }
     let vmax = fluid
         .particles()
@@ -418,10 +418,10 @@ fn three_dimensional_column_is_hydrostatic() {
 fn pattern_is_reused_while_the_fluid_cells_do_not_change() {
     // A column at rest keeps its cells: every step after the first reuses the pattern.
     let mut fluid = column(16, 0.5, PressureMethod::IncompleteCholesky);
-    let first = fluid.advance().unwrap();
+    let first = fluid.step().unwrap();
     assert!(!first.events.contains(&("pressure_pattern_reused", 1)));
     for _ in 0..3 {
-        let info = fluid.advance().unwrap();
+        let info = fluid.step().unwrap();
         assert!(info.events.contains(&("pressure_pattern_reused", 1)));
     }
 }
@@ -443,7 +443,7 @@ fn fixed_dt_above_the_bound_stops_or_is_retried_at_half_steps() {
         .unwrap()
     };
     // g dt² = 0.22 m > Δx: the first step moves particles more than a cell.
-    match make(mpm_core::OnInstability::Abort).advance() {
+    match make(mpm_core::OnInstability::Abort).step() {
         Err(StepError::Instability(i)) => {
             assert_eq!(i.violation, mpm_core::Violation::CflExceeded);
             assert_eq!(i.stage, mpm_core::Stage::G2P);
@@ -451,7 +451,7 @@ fn fixed_dt_above_the_bound_stops_or_is_retried_at_half_steps() {
         other => panic!("expected a CFL instability, got {other:?}"),
     }
     let mut retry = make(mpm_core::OnInstability::Retry { max_retries: 4 });
-    let info = retry.advance().unwrap();
+    let info = retry.step().unwrap();
     assert!(info.retries >= 1 && info.dt < 0.15, "{info:?}");
     let moved = retry
         .particles()
@@ -480,7 +480,7 @@ fn particle_quadrature_of_the_gradient_destabilises_a_column_at_rest() {
     )
     .unwrap();
     while fluid.time() < 0.6 {
-        fluid.advance().unwrap();
+        fluid.step().unwrap();
     }
     let vmax = fluid
         .particles()
@@ -516,7 +516,7 @@ fn cg_keeps_a_decreasing_residual_history_when_asked() {
         .unwrap();
     let again = system.solve(&rhs, &mut lambda, &params).unwrap();
     assert!(again.pattern_reused && !info.pattern_reused);
-    fluid.advance().unwrap();
+    fluid.step().unwrap();
 }
 
 #[test]
@@ -544,11 +544,11 @@ fn a_moving_collider_pushes_the_fluid_and_resumes_bitwise() {
     };
     let mut f = make();
     for _ in 0..15 {
-        f.advance().unwrap();
+        f.step().unwrap();
     }
     let mid = f.checkpoint();
     while f.time() < 0.3 {
-        f.advance().unwrap();
+        f.step().unwrap();
     }
     // The disk has entered the water: no particle inside it, and the divergence stays at the
     // solver tolerance.
@@ -569,7 +569,7 @@ fn a_moving_collider_pushes_the_fluid_and_resumes_bitwise() {
     let mut resumed = make();
     resumed.restore(&mid).unwrap();
     while resumed.time() < 0.3 {
-        resumed.advance().unwrap();
+        resumed.step().unwrap();
     }
     assert_eq!(resumed.checkpoint(), f.checkpoint());
 }
@@ -616,7 +616,7 @@ fn water_at_rest_stays_at_rest_around_a_submerged_box_collider() {
     )
     .unwrap();
     while f.time() < 0.5 {
-        f.advance().unwrap();
+        f.step().unwrap();
     }
     let vmax = f
         .particles()
@@ -685,7 +685,7 @@ fn a_viscous_shear_mode_decays_at_the_analytic_rate() {
         let mut f = shear_layer(mu, n);
         let a0 = shear_amplitude(&f);
         while f.time() < t_end - 1e-12 {
-            f.advance().unwrap();
+            f.step().unwrap();
         }
         -(shear_amplitude(&f) / a0).ln() / f.time()
     };
@@ -744,8 +744,8 @@ fn viscosity_keeps_momentum_and_only_removes_energy() {
     let p0 = momentum(&viscous);
     let mut last = energy(&viscous);
     for _ in 0..20 {
-        inviscid.advance().unwrap();
-        let info = viscous.advance().unwrap();
+        inviscid.step().unwrap();
+        let info = viscous.step().unwrap();
         let solve = info.solves.iter().find(|s| s.name == "viscosity").unwrap();
         assert!(solve.iterations > 0 && solve.residual <= 1e-12);
         let e = energy(&viscous);
@@ -811,8 +811,8 @@ fn viscosity_keeps_momentum_and_removes_energy_in_3d() {
     let (mut f, mut inviscid) = (cube(50.0), cube(0.0));
     let (p0, mut last) = totals(&f);
     for _ in 0..10 {
-        inviscid.advance().unwrap();
-        let info = f.advance().unwrap();
+        inviscid.step().unwrap();
+        let info = f.step().unwrap();
         assert!(info.solves.iter().any(|s| s.name == "viscosity"));
         let (_, e) = totals(&f);
         assert!(e < last, "kinetic energy rose from {last} to {e} J");

@@ -6,6 +6,7 @@
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::sampling::{sample, Sampling, Shape};
+use mpm_core::Solver as _;
 use mpm_core::{Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Vector};
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use std::time::Instant;

@@ -17,9 +17,9 @@ use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::volume::density_at;
 use mpm_core::{
     columns, on_pool, retry_halving, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec,
-    Instability, Location, Material, NodeLayout, OnInstability, Particles, Real, SetupError,
-    Solver, SolverState, Stage, StagePlan, StageTimes, StepError, StepInfo, StepStart,
-    TimeStepPolicy, Vector, Violation,
+    Location, Material, NodeLayout, OnInstability, Particles, Real, SetupError, Solver,
+    SolverState, Stage, StagePlan, StageTimes, StepError, StepInfo, StepStart, TimeStepPolicy,
+    Vector, Violation,
 };
 use rayon::prelude::*;
 use std::convert::Infallible;
@@ -214,22 +214,7 @@ where
             || self.params.dissolution.is_some()
     }
 
-    /// Advances one step. On a failed guard check the step is retried with dt/2 when the policy
-    /// allows it; otherwise an [`Instability`] names the step, stage, particle or node and value.
-    /// G2P writes the particles in place, so after a failed step under
-    /// [`OnInstability::Abort`] they hold the failed step's partial result (time and the step
-    /// count do not advance); under [`OnInstability::Retry`] the saved state is put back before
-    /// each retry. (The same as [`Solver::step`], with
-    /// the error type narrowed: this solver has no iterative solve that could fail.) The step
-    /// runs on a thread of the rayon pool ([`on_pool`]).
-    pub fn step(&mut self) -> Result<StepInfo, Instability> {
-        on_pool(|| self.advance_step()).map_err(|e| match e {
-            StepError::Instability(i) => i,
-            StepError::Solve { source, .. } => match source {},
-        })
-    }
-
-    /// [`ExplicitSolver::step`] with the shared step machinery.
+    /// [`Solver::step`] on the calling thread, with the shared step machinery.
     fn advance_step(&mut self) -> Result<StepInfo, StepError<Infallible>> {
         let start = StepStart {
             step: self.steps,
@@ -818,8 +803,18 @@ where
         self.plan.clone()
     }
 
+    /// Advances one step. On a failed guard check the step is retried with dt/2 when the policy
+    /// allows it; otherwise an [`mpm_core::Instability`] names the step, stage, particle or
+    /// node and value (this solver has no iterative solve that could fail). G2P writes the particles in
+    /// place, so after a failed step under [`OnInstability::Abort`] they hold the failed step's
+    /// partial result (time and the step count do not advance); under
+    /// [`OnInstability::Retry`] the saved state is put back before each retry. The step runs on
+    /// a thread of the rayon pool ([`on_pool`]).
     fn step(&mut self) -> Result<StepInfo, StepError> {
-        ExplicitSolver::step(self).map_err(StepError::Instability)
+        on_pool(|| self.advance_step()).map_err(|e| match e {
+            StepError::Instability(i) => StepError::Instability(i),
+            StepError::Solve { source, .. } => match source {},
+        })
     }
 
     fn stage_times(&self) -> Vec<StageTime> {

@@ -7,7 +7,7 @@ use common::{fill_box, jelly, particles_for, water, with_threads};
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::{
     ColumnData, Dim, DimOps, GridSpec, Kernel, Matrix, OnInstability, Real, Solver, Stage,
-    TimeStepPolicy, Vector, Violation,
+    StepError, TimeStepPolicy, Vector, Violation,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver, SoftWalls, Transfer, VolumeUpdate};
 
@@ -305,7 +305,10 @@ fn instability_abort_and_retry() {
         ExplicitSolver::new(spec, params, materials, Boundaries::default(), particles).unwrap()
     };
     let mut s = build(OnInstability::Abort, 1e-3);
-    let err = s.step().unwrap_err();
+    let err = match s.step().unwrap_err() {
+        StepError::Instability(i) => i,
+        other => panic!("expected an instability, got {other}"),
+    };
     assert_eq!(err.stage, Stage::G2P);
     assert_eq!(err.violation, Violation::CflExceeded);
     assert!(matches!(err.location, mpm_core::Location::Particle(_)));

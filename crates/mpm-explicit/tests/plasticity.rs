@@ -5,6 +5,7 @@ mod common;
 use common::{fill_box, particles_for};
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::material::{DruckerPrager, ElasticModel, Lame, Plasticity, Snow, SolidMaterial};
+use mpm_core::Solver as _;
 use mpm_core::{Dim, DimOps, GridSpec, Material, Matrix, Real, Vector};
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 

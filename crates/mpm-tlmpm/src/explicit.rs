@@ -14,21 +14,6 @@ use mpm_core::{
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// What one accepted explicit step did.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ExplicitStepInfo {
-    /// The accepted time step (s).
-    pub dt: Real,
-    /// Number of dt/2 retries before it was accepted.
-    pub retries: u32,
-    /// Simulation time after the step (s).
-    pub time: Real,
-    /// What the contact stage of the accepted attempt found (`None` when contact is off).
-    pub contact: Option<ContactStats>,
-    /// Whether an A-ULMPM reference update followed the step.
-    pub reference_updated: bool,
-}
-
 /// Explicit total-Lagrangian MPM: P2G of momentum to the reference grid, the internal force of
 /// Eq. 3 at `F^n`, the symplectic Euler update `v_i^{n+1} = v̂_i + Δt (f_i + f^ext_i)/m_i`, then
 /// G2P with `F^{n+1} = F^n + Δt Σ_i v_i^{n+1} ⊗ ∇^X W_i(X_p)`. Stable for
@@ -40,6 +25,8 @@ pub struct ExplicitTlmpm<const D: usize> {
     core: Core<D>,
     stats: StageTimes,
     stress: Vec<Matrix<D>>,
+    /// What the contact stage of the last accepted step found.
+    last_contact: Option<ContactStats>,
 }
 
 impl<const D: usize> ExplicitTlmpm<D>
@@ -63,18 +50,13 @@ where
             core,
             stats,
             stress: Vec::new(),
+            last_contact: None,
         })
     }
 
-    /// Advances one step, retrying with dt/2 on a failed guard check when the policy allows;
-    /// a failed step leaves the particles untouched. The step runs on a thread of the rayon pool
-    /// ([`on_pool`]).
-    pub fn step(&mut self) -> Result<ExplicitStepInfo, StepError> {
-        on_pool(|| self.advance_step())
-    }
-
-    /// [`Self::step`] on the calling thread.
-    fn advance_step(&mut self) -> Result<ExplicitStepInfo, StepError> {
+    /// [`mpm_core::Solver::step`] on the calling thread: retries with dt/2 on a failed guard
+    /// check when the policy allows; a failed step leaves the particles untouched.
+    fn advance_step(&mut self) -> Result<StepInfo, StepError> {
         let start = self.core.start();
         let core = &self.core;
         let dt0 = self
@@ -90,13 +72,13 @@ where
             .stats
             .time(Stage::ReferenceUpdate, || core.reference_update())
             .map_err(|f| start.error(f, dt, retries))?;
-        Ok(ExplicitStepInfo {
-            dt,
-            retries,
-            time: self.core.time,
+        self.last_contact = contact;
+        Ok(step_info(
+            (dt, retries, self.core.time),
+            (Vec::new(), Vec::new()),
             contact,
             reference_updated,
-        })
+        ))
     }
 
     crate::core::shared_accessors!();
@@ -208,15 +190,15 @@ where
         )
     }
 
-    /// [`Self::step`] for the solver seam.
+    /// The step of the solver seam, on a thread of the rayon pool ([`on_pool`]).
     fn seam_step(&mut self) -> Result<StepInfo, mpm_core::StepError> {
-        let info = self.step().map_err(|e| e.erase("Newton"))?;
-        Ok(step_info(
-            (info.dt, info.retries, info.time),
-            (Vec::new(), Vec::new()),
-            info.contact,
-            info.reference_updated,
-        ))
+        on_pool(|| self.advance_step()).map_err(|e| e.erase("Newton"))
+    }
+
+    /// What the contact stage of the last accepted step found (`None` when contact is off or
+    /// before the first step).
+    pub fn last_contact(&self) -> Option<ContactStats> {
+        self.last_contact
     }
 
     /// Stage times.

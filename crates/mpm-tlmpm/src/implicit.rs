@@ -52,24 +52,6 @@ use mpm_linalg::{
 };
 use std::time::Instant;
 
-/// What one accepted implicit step did.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ImplicitStepInfo {
-    /// The accepted time step (s).
-    pub dt: Real,
-    /// Number of dt/2 retries before it was accepted.
-    pub retries: u32,
-    /// Simulation time after the step (s).
-    pub time: Real,
-    /// The Newton solve of the accepted attempt.
-    pub newton: NewtonInfo,
-    /// What the contact stage of the accepted attempt found (`None` when contact is off).
-    pub contact: Option<ContactStats>,
-    /// Whether an A-ULMPM reference update followed the step (the sparsity pattern and the
-    /// symbolic factorisation are then rebuilt at the start of the next step).
-    pub reference_updated: bool,
-}
-
 /// The assembled Newton system for the Cholesky solver: the matrix (pattern and values), the
 /// right-hand side and the factorisation whose symbolic part was computed once.
 #[derive(Debug)]
@@ -119,6 +101,8 @@ pub struct ImplicitTlmpm<const D: usize> {
     stats: StageTimes,
     newton_times: NewtonTimes,
     ws: Workspace<D>,
+    /// The Newton solve and the contact stage of the last accepted step.
+    last: (NewtonInfo, Option<ContactStats>),
 }
 
 impl<const D: usize> ImplicitTlmpm<D>
@@ -156,6 +140,7 @@ where
             stats: StageTimes::default(),
             newton_times: NewtonTimes::default(),
             ws: Workspace::default(),
+            last: (NewtonInfo::default(), None),
         };
         if implicit.linear == LinearSolver::Cholesky {
             solver.analyse().map_err(|e| SetupError::InvalidParameter {
@@ -187,16 +172,10 @@ where
         Ok(())
     }
 
-    /// Advances one step. On a failed guard check or Newton failure the step is retried with
-    /// dt/2 when the policy allows it; otherwise the error names the step and what failed. A
-    /// failed step leaves the particles untouched. The step runs on a thread of the rayon pool
-    /// ([`on_pool`]).
-    pub fn step(&mut self) -> Result<ImplicitStepInfo, StepError> {
-        on_pool(|| self.advance_step())
-    }
-
-    /// [`Self::step`] on the calling thread.
-    fn advance_step(&mut self) -> Result<ImplicitStepInfo, StepError> {
+    /// [`mpm_core::Solver::step`] on the calling thread: on a failed guard check or Newton
+    /// failure the step is retried with dt/2 when the policy allows it; otherwise the error
+    /// names the step and what failed. A failed step leaves the particles untouched.
+    fn advance_step(&mut self) -> Result<StepInfo, StepError> {
         let start = self.core.start();
         if self.implicit.linear == LinearSolver::Cholesky {
             self.analyse()
@@ -224,14 +203,19 @@ where
         if reference_updated {
             self.ws.objective.sparse = None;
         }
-        Ok(ImplicitStepInfo {
-            dt,
-            retries,
-            time: self.core.time,
-            newton,
+        let solve = SolveInfo {
+            name: "newton",
+            iterations: newton.iterations,
+            residual: newton.residuals.last().copied().unwrap_or(0.0),
+        };
+        let history = ("newton", newton.residuals.clone());
+        self.last = (newton, contact);
+        Ok(step_info(
+            (dt, retries, self.core.time),
+            (vec![solve], vec![history]),
             contact,
             reference_updated,
-        })
+        ))
     }
 
     /// Linearises the Newton system of a step of `dt` (s) at the initial guess, without advancing
@@ -938,20 +922,21 @@ where
         )
     }
 
-    /// [`Self::step`] for the solver seam.
+    /// The step of the solver seam, on a thread of the rayon pool ([`on_pool`]).
     fn seam_step(&mut self) -> Result<StepInfo, mpm_core::StepError> {
-        let info = self.step().map_err(|e| e.erase("Newton"))?;
-        let newton = SolveInfo {
-            name: "newton",
-            iterations: info.newton.iterations,
-            residual: info.newton.residuals.last().copied().unwrap_or(0.0),
-        };
-        Ok(step_info(
-            (info.dt, info.retries, info.time),
-            (vec![newton], vec![("newton", info.newton.residuals)]),
-            info.contact,
-            info.reference_updated,
-        ))
+        on_pool(|| self.advance_step()).map_err(|e| e.erase("Newton"))
+    }
+
+    /// The Newton solve of the last accepted step (iterations, residual history, line-search
+    /// halvings, …); the default (no iterations) before the first step.
+    pub fn last_newton(&self) -> &NewtonInfo {
+        &self.last.0
+    }
+
+    /// What the contact stage of the last accepted step found (`None` when contact is off or
+    /// before the first step).
+    pub fn last_contact(&self) -> Option<ContactStats> {
+        self.last.1
     }
 
     /// Stage times, with the Newton breakdown under `solve`.

@@ -6,6 +6,7 @@ mod common;
 use common::{add_lattice, block, grid_around, neo_hookean};
 use mpm_core::boundary::ColliderShape;
 use mpm_core::material::{DruckerPrager, ElasticModel, Lame, Plasticity, Snow, SolidMaterial};
+use mpm_core::Solver as _;
 use mpm_core::{Columns, Material, Particles, Real, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, ExplicitTlmpm, FixedRegion, ImplicitParams, ImplicitTlmpm,

@@ -5,6 +5,7 @@ mod common;
 
 use common::{add_lattice, block, grid_around, momentum, neo_hookean};
 use mpm_core::boundary::ColliderShape;
+use mpm_core::Solver as _;
 use mpm_core::{Columns, Particles, Real, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, ExplicitTlmpm, ImplicitParams, ImplicitTlmpm, NewtonParams,
@@ -65,8 +66,14 @@ impl Solver {
     /// One step; returns the number of contacts (pairs + obstacle contacts) it found.
     fn step(&mut self) -> usize {
         let c = match self {
-            Self::Explicit(s) => s.step().unwrap().contact,
-            Self::Implicit(s) => s.step().unwrap().contact,
+            Self::Explicit(s) => {
+                s.step().unwrap();
+                s.last_contact()
+            }
+            Self::Implicit(s) => {
+                s.step().unwrap();
+                s.last_contact()
+            }
         };
         let c = c.expect("contact stage runs");
         c.pairs + c.obstacle_contacts

@@ -6,6 +6,7 @@ mod common;
 use common::{block, grid_around, momentum, solid};
 use mpm_core::material::{ElasticModel, Lame};
 use mpm_core::quasistatic::GravityRamp;
+use mpm_core::Solver as _;
 use mpm_core::{Particles, Real, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ExplicitTlmpm, FixedRegion, ImplicitParams, ImplicitTlmpm, LinearSolver, NewtonParams,

@@ -5,6 +5,7 @@ mod common;
 use common::{block, grid_around, solid, Lcg};
 use mpm_core::material::{ElasticModel, Lame};
 use mpm_core::quasistatic::{Damping, GravityRamp};
+use mpm_core::Solver as _;
 use mpm_core::{Dim, DimOps, Material, Particles, Real, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ExplicitTlmpm, FixedRegion, ImplicitParams, ImplicitTlmpm, LinearSolver, NewtonParams,

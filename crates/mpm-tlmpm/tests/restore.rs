@@ -7,6 +7,7 @@ mod common;
 use common::add_lattice;
 use mpm_core::boundary::ColliderShape;
 use mpm_core::material::{ElasticModel, Lame, Plasticity, Snow, SolidMaterial};
+use mpm_core::Solver as _;
 use mpm_core::{Columns, GridSpec, Material, Particles, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, ExplicitTlmpm, ImplicitParams, ImplicitTlmpm, Obstacle,

@@ -14,7 +14,8 @@ pub mod tlmpm;
 
 use crate::report::{fit_rate, CaseResult, Mode, Run, Status};
 use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
-use mpm_core::{Instability, Material, Real, SetupError, Vector};
+use mpm_core::sampling::BodyError;
+use mpm_core::{Material, Real, SetupError, StepError, Vector};
 use std::fmt;
 
 /// Name of the solver configuration every case uses.
@@ -190,15 +191,18 @@ pub fn find(name: &str) -> Option<&'static dyn Case> {
 pub enum RunError {
     /// The scene was rejected by `ExplicitSolver::new`.
     Setup(SetupError),
-    /// The solver stopped with a guard-check failure.
-    Unstable(Instability),
+    /// The bodies could not be sampled.
+    Body(BodyError),
+    /// A step failed: a guard check or a solve.
+    Step(StepError),
 }
 
 impl fmt::Display for RunError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             RunError::Setup(e) => write!(f, "set-up error: {e}"),
-            RunError::Unstable(e) => write!(f, "{e}"),
+            RunError::Body(e) => write!(f, "bodies: {e}"),
+            RunError::Step(e) => write!(f, "{e}"),
         }
     }
 }
@@ -211,9 +215,15 @@ impl From<SetupError> for RunError {
     }
 }
 
-impl From<Instability> for RunError {
-    fn from(e: Instability) -> Self {
-        RunError::Unstable(e)
+impl From<StepError> for RunError {
+    fn from(e: StepError) -> Self {
+        RunError::Step(e)
+    }
+}
+
+impl From<BodyError> for RunError {
+    fn from(e: BodyError) -> Self {
+        RunError::Body(e)
     }
 }
 

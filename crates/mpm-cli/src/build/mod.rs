@@ -7,26 +7,23 @@
 //! reported at their key in the scene file.
 
 use crate::error::SceneError;
-use crate::mesh::{read_obj, TriMesh};
+use crate::input::read_obj;
 use crate::scene::{
-    count_text, BodyDef, BoundaryGeometry, Duration, InstabilityAction, LoadedScene, NumberOrList,
-    SamplingDef, Scene, ShapeDef, Simulation, TimeStepDef,
+    BodyDef, BoundaryGeometry, Duration, InstabilityAction, LoadedScene, NumberOrList, SamplingDef,
+    Scene, ShapeDef, Simulation, TimeStepDef,
 };
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, DomainWalls};
 use mpm_core::quasistatic::{Damping, GravityRamp};
-use mpm_core::sampling::{sample, Sampling, Shape};
+use mpm_core::sampling::{Body, BodyError, ParticlesBuilder, Sampling, Shape, MAX_PARTICLES};
 use mpm_core::{
-    Dim, DimOps, GridSpec, Kernel, Material, Matrix, OnInstability, ParticleExtra, ParticleInit,
-    Particles, SetupError, Solver, TimeStepPolicy, Vector,
+    Angular, Dim, DimOps, GridSpec, Material, Matrix, OnInstability, ParticleExtra, Particles,
+    SetupError, Solver, TimeStepPolicy, Vector,
 };
 use std::ops::Range;
 
 pub mod diq;
 pub mod explicit;
 pub mod tlmpm;
-
-/// Largest number of particles a scene may create (memory guard against typos).
-pub const MAX_PARTICLES: f64 = 16e6;
 
 /// One sampled body.
 #[derive(Clone, Debug, PartialEq)]
@@ -222,21 +219,6 @@ pub fn boundaries<const D: usize>(scene: &LoadedScene) -> Boundaries<D> {
     out
 }
 
-/// The region (m) where a particle's whole stencil lies inside the grid: `[lo, hi)` per axis.
-pub fn interior<const D: usize>(spec: &GridSpec<D>, k: Kernel) -> (Vector<D>, Vector<D>) {
-    let lo = Vector::<D>::from_fn(|a, _| spec.origin[a] + k.lower_margin() * spec.dx);
-    let hi = Vector::<D>::from_fn(|a, _| {
-        let n = spec.size[a] as f64 - k.support() as f64 + k.lower_margin() + 1.0;
-        spec.origin[a] + n * spec.dx
-    });
-    (lo, hi)
-}
-
-fn fmt_vec(v: &[f64]) -> String {
-    let parts: Vec<String> = v.iter().map(|x| format!("{x:.4}")).collect();
-    format!("[{}]", parts.join(", "))
-}
-
 /// The key that best locates a body's geometry.
 fn geometry_key(i: usize, b: &BodyDef, upper: bool) -> String {
     let key = match b.shape {
@@ -262,58 +244,43 @@ fn sample_bodies<const D: usize>(
     spec: &GridSpec<D>,
     materials: &[Material],
 ) -> Result<(Particles<D>, Vec<BodyInfo>), SceneError> {
-    let k = scene.scene.grid.kernel;
-    let mut particles = Particles::<D>::new(scene.columns());
+    let mut builder = ParticlesBuilder::with_columns(spec, materials, scene.columns())
+        .kernel(scene.scene.grid.kernel)
+        .max_particles(MAX_PARTICLES);
     let mut bodies = Vec::new();
     for (i, b) in scene.scene.bodies.iter().enumerate() {
-        let (xs, vols) = sample_body(scene, i, b, spec, k)?;
-        if (particles.len() + xs.len()) as f64 > MAX_PARTICLES {
-            return Err(scene.error(
-                &format!("bodies[{i}]"),
-                format!("the scene would have more than {MAX_PARTICLES:.0e} particles"),
-            ));
-        }
-        let rho = materials[b.material_index].density();
-        let v0 = vector::<D>(&b.velocity);
-        let grad = velocity_gradient::<D>(b);
-        let about = b.about.as_deref().map_or(Vector::<D>::zeros(), vector::<D>);
-        let start = particles.len();
-        let extra = ParticleExtra {
-            phase: b.phase,
-            volume_fraction: b.initial_phi_eff.unwrap_or(0.0),
-            concentration: b.concentration.unwrap_or(0.0),
-        };
-        for (x, vol) in xs.into_iter().zip(vols) {
-            particles.push_with(
-                ParticleInit {
-                    x,
-                    v: v0 + grad * (x - about),
-                    mass: rho * vol,
-                    volume0: vol,
-                    material: b.material_index as u32,
-                    affine: grad,
-                },
-                extra,
-            );
-        }
+        let body = body::<D>(scene, i, b)?;
+        let particles = builder
+            .add(&body)
+            .map_err(|e| scene.error(&body_error_key(i, b, &e), e.to_string()))?;
         bodies.push(BodyInfo {
             name: b.name.clone(),
             material: b.material.clone(),
-            particles: start..particles.len(),
+            particles,
         });
     }
-    Ok((particles, bodies))
+    Ok((builder.build(), bodies))
 }
 
-/// Samples body `i`: positions and the volume each represents.
-fn sample_body<const D: usize>(
-    scene: &LoadedScene,
-    i: usize,
-    b: &BodyDef,
-    spec: &GridSpec<D>,
-    k: Kernel,
-) -> Result<(Vec<Vector<D>>, Vec<f64>), SceneError> {
-    let key = |name: &str| format!("bodies[{i}].{name}");
+/// The scene key of a body's sampling error.
+fn body_error_key(i: usize, b: &BodyDef, e: &BodyError) -> String {
+    let lattice = matches!(b.sampling, SamplingDef::Lattice { .. });
+    match e {
+        BodyError::Outside { below, .. } => geometry_key(i, b, !below),
+        BodyError::ParticleOutside { .. } => geometry_key(i, b, true),
+        BodyError::TooMany { .. } if lattice => format!("bodies[{i}].per_axis"),
+        BodyError::Empty { .. } if lattice => format!("bodies[{i}].shape"),
+        BodyError::TooMany { .. } | BodyError::Empty { .. } => {
+            format!("bodies[{i}].poisson_radius")
+        }
+        BodyError::DegenerateMesh { .. } => format!("bodies[{i}].file"),
+        BodyError::UnknownMaterial { .. } => format!("bodies[{i}].material"),
+        BodyError::TooManyInAll { .. } => format!("bodies[{i}]"),
+    }
+}
+
+/// Body `i` of the scene, ready to sample.
+fn body<const D: usize>(scene: &LoadedScene, i: usize, b: &BodyDef) -> Result<Body<D>, SceneError> {
     let sampling = match b.sampling {
         SamplingDef::Lattice {
             per_axis,
@@ -332,50 +299,53 @@ fn sample_body<const D: usize>(
             seed,
         },
     };
-    // The shape to sample and, for meshes, the inside test applied afterwards.
-    let (shape, mesh): (Shape<D>, Option<TriMesh>) = match &b.shape {
+    let material = b.material_index as u32;
+    let body = match &b.shape {
         ShapeDef::Box {
             min,
             max,
             rotation: None,
-        } => (
+        } => Body::new(
             Shape::Box {
                 min: vector::<D>(min),
                 max: vector::<D>(max),
             },
-            None,
+            material,
         ),
         ShapeDef::Box {
             min,
             max,
             rotation: Some(deg),
-        } => (tilted_box(min, max, *deg), None),
-        ShapeDef::Polygon { vertices } => (
+        } => Body::new(
+            Shape::rotated_box([min[0], min[1]], [max[0], max[1]], *deg),
+            material,
+        ),
+        ShapeDef::Polygon { vertices } => Body::new(
             Shape::Polygon {
                 vertices: vertices.clone(),
             },
-            None,
+            material,
         ),
-        ShapeDef::Sphere { center, radius } => (
+        ShapeDef::Sphere { center, radius } => Body::new(
             Shape::Sphere {
                 center: vector::<D>(center),
                 radius: *radius,
             },
-            None,
+            material,
         ),
         ShapeDef::Cylinder {
             center,
             axis,
             radius,
             half_length,
-        } => (
+        } => Body::new(
             Shape::Cylinder {
                 center: vector::<D>(center),
                 axis: vector::<D>(axis),
                 radius: *radius,
                 half_length: *half_length,
             },
-            None,
+            material,
         ),
         ShapeDef::Mesh {
             scale,
@@ -384,150 +354,39 @@ fn sample_body<const D: usize>(
             path,
             ..
         } => {
-            let raw = read_obj(path).map_err(|e| scene.error(&key("file"), e))?;
+            let raw = read_obj(path).map_err(|e| scene.error(&format!("bodies[{i}].file"), e))?;
             let arr = |v: &[f64]| [0, 1, 2].map(|a| v.get(a).copied().unwrap_or(0.0));
-            let mesh = raw.transformed(arr(scale), arr(rotation), arr(translation));
-            let (lo, hi) = mesh.bounds();
-            if !(0..3).all(|a| lo[a].is_finite() && hi[a].is_finite() && hi[a] > lo[a]) {
-                return Err(scene.error(
-                    &key("file"),
-                    format!("mesh {} is flat or degenerate", path.display()),
-                ));
-            }
-            (
-                Shape::Box {
-                    min: vector::<D>(&lo),
-                    max: vector::<D>(&hi),
-                },
-                Some(mesh),
+            Body::mesh(
+                raw.transformed(arr(scale), arr(rotation), arr(translation)),
+                material,
             )
         }
     };
-    // The body must lie where particle stencils fit in the grid.
-    let (blo, bhi) = shape.bounds();
-    let (ilo, ihi) = interior(spec, k);
-    let outside_low = (0..D).any(|a| blo[a] < ilo[a] || blo[a].is_nan());
-    let outside_high = (0..D).any(|a| bhi[a] >= ihi[a] || bhi[a].is_nan());
-    if outside_low || outside_high {
-        return Err(scene.error(
-            &geometry_key(i, b, !outside_low),
-            format!(
-                "body \"{}\" lies outside the grid: its bounding box {} .. {} must lie within \
-                 {} .. {} (the grid box less the {:?} kernel's stencil margin)",
-                b.name,
-                fmt_vec(blo.as_slice()),
-                fmt_vec(bhi.as_slice()),
-                fmt_vec(ilo.as_slice()),
-                fmt_vec(ihi.as_slice()),
-                k
-            ),
-        ));
-    }
-    // Guard against absurd particle counts before sampling.
-    let bbox_volume: f64 = (0..D).map(|a| bhi[a] - blo[a]).product();
-    let spacing = match b.sampling {
-        SamplingDef::Lattice { per_axis, .. } => spec.dx / per_axis as f64,
-        SamplingDef::Poisson { poisson_radius, .. } => poisson_radius,
-    };
-    let estimate = bbox_volume / spacing.powi(D as i32);
-    if estimate > MAX_PARTICLES || estimate.is_nan() {
-        let k = match b.sampling {
-            SamplingDef::Lattice { .. } => "per_axis",
-            SamplingDef::Poisson { .. } => "poisson_radius",
-        };
-        return Err(scene.error(
-            &key(k),
-            format!(
-                "body \"{}\" would get about {} particles (limit {})",
-                b.name,
-                count_text(estimate),
-                count_text(MAX_PARTICLES)
-            ),
-        ));
-    }
-    let (mut xs, mut vols) = sample(&shape, &sampling, &spec.origin, spec.dx);
-    if let Some(mesh) = mesh {
-        let pts: Vec<[f64; 3]> = xs
-            .iter()
-            .map(|x| [0, 1, 2].map(|a| if a < D { x[a] } else { 0.0 }))
-            .collect();
-        let inside = mesh.contains_all(&pts);
-        let mut keep = inside.iter();
-        xs.retain(|_| keep.next().copied().unwrap_or(false));
-        vols.truncate(xs.len());
-    }
-    if xs.is_empty() {
-        let k = match b.sampling {
-            SamplingDef::Lattice { .. } => "shape",
-            SamplingDef::Poisson { .. } => "poisson_radius",
-        };
-        return Err(scene.error(
-            &key(k),
-            format!(
-                "body \"{}\" has no particles: the shape is too small for the sampling \
-                 (particle spacing {spacing:.4e} m)",
-                b.name
-            ),
-        ));
-    }
-    let range = spec.stencil_range(k);
-    if let Some(x) = xs.iter().find(|x| !range.contains(spec, x)) {
-        return Err(scene.error(
-            &geometry_key(i, b, true),
-            format!(
-                "body \"{}\" has a particle at {} outside the grid's interior {} .. {}",
-                b.name,
-                fmt_vec(x.as_slice()),
-                fmt_vec(ilo.as_slice()),
-                fmt_vec(ihi.as_slice())
-            ),
-        ));
-    }
-    Ok((xs, vols))
-}
-
-/// The box `[min, max]` (m, 2D) turned by `deg` degrees counter-clockwise about its centre, as
-/// the polygon of its four corners.
-fn tilted_box<const D: usize>(min: &[f64], max: &[f64], deg: f64) -> Shape<D> {
-    let (s, c) = deg.to_radians().sin_cos();
-    let centre = [0.5 * (min[0] + max[0]), 0.5 * (min[1] + max[1])];
-    let corners = [
-        [min[0], min[1]],
-        [max[0], min[1]],
-        [max[0], max[1]],
-        [min[0], max[1]],
-    ];
-    Shape::Polygon {
-        vertices: corners
-            .iter()
-            .map(|p| {
-                let (x, y) = (p[0] - centre[0], p[1] - centre[1]);
-                [centre[0] + c * x - s * y, centre[1] + s * x + c * y]
-            })
-            .collect(),
-    }
-}
-
-/// The affine velocity gradient of a body's initial velocity field (1/s).
-fn velocity_gradient<const D: usize>(b: &BodyDef) -> Matrix<D> {
-    if let Some(rows) = &b.velocity_gradient {
-        return Matrix::<D>::from_fn(|i, j| {
-            rows.get(i).and_then(|r| r.get(j)).copied().unwrap_or(0.0)
-        });
-    }
-    match (&b.angular_velocity, D) {
-        (Some(NumberOrList::Number(w)), 2) => Matrix::<D>::from_fn(|i, j| match (i, j) {
-            (0, 1) => -w,
-            (1, 0) => *w,
-            _ => 0.0,
-        }),
-        (Some(NumberOrList::List(w)), 3) if w.len() == 3 => {
-            // [ω]× so that C (x − p) = ω × (x − p).
-            let s = [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]];
-            Matrix::<D>::from_fn(|i, j| s[i][j])
+    let about = b.about.as_deref().map_or(Vector::<D>::zeros(), vector::<D>);
+    let v0 = vector::<D>(&b.velocity);
+    let body = match (&b.velocity_gradient, &b.angular_velocity) {
+        (Some(rows), _) => {
+            let a = Matrix::<D>::from_fn(|i, j| {
+                rows.get(i).and_then(|r| r.get(j)).copied().unwrap_or(0.0)
+            });
+            body.affine_velocity(v0, a, about)
         }
-        _ => Matrix::<D>::zeros(),
-    }
+        (None, Some(NumberOrList::Number(w))) => {
+            body.spinning(v0, Angular::new(0.0, 0.0, *w), about)
+        }
+        (None, Some(NumberOrList::List(w))) if w.len() == 3 => {
+            body.spinning(v0, Angular::new(w[0], w[1], w[2]), about)
+        }
+        _ => body.affine_velocity(v0, Matrix::<D>::zeros(), about),
+    };
+    Ok(body
+        .named(b.name.clone())
+        .sampling(sampling)
+        .extra(ParticleExtra {
+            phase: b.phase,
+            volume_fraction: b.initial_phi_eff.unwrap_or(0.0),
+            concentration: b.concentration.unwrap_or(0.0),
+        }))
 }
 
 /// A warning for each material no particle uses, except material `made_in_run` (one that

@@ -4,7 +4,7 @@
 //! errors.
 
 use super::{
-    boundaries, damping, fmt_vec, gravity_ramp, on_instability, setup_error, time_step_policy,
+    boundaries, damping, gravity_ramp, on_instability, setup_error, time_step_policy,
     unused_materials, vector, Built, ErrorKeys, Start,
 };
 use crate::error::SceneError;
@@ -13,6 +13,7 @@ use crate::scene::{
     TlmpmDef, TlmpmScene, TransferKind, FLIP_BLEND_DEFAULT,
 };
 use mpm_core::quasistatic::GravityRamp;
+use mpm_core::sampling::vector_text;
 use mpm_core::{Dim, DimOps, GridSpec, Particles, Vector};
 use mpm_tlmpm::{
     ClampPlane, ContactParams, ContactRadius, FixedRegion, ImplicitParams, LinearSolver,
@@ -188,8 +189,8 @@ fn load_forces<const D: usize>(
                 format!(
                     "load \"{}\" selects no particle: no particle lies in the box {} .. {}",
                     l.name,
-                    fmt_vec(&l.min),
-                    fmt_vec(&l.max)
+                    vector_text(&l.min),
+                    vector_text(&l.max)
                 ),
             ));
         }

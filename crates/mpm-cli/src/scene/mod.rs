@@ -550,23 +550,7 @@ fn reject_other_solvers_keys(c: &mut Checker<'_>, chosen: SolverKind) {
     }
 }
 
-/// A count computed as an `f64` (grid nodes, estimated particles) for messages: the exact
-/// integer (rounded up, with thousands separators) below 10¹⁵, else scientific notation, so that
-/// a count and its limit are never rounded to look alike.
-pub(crate) fn count_text(n: f64) -> String {
-    if !(n.is_finite() && (0.0..1e15).contains(&n)) {
-        return format!("{n:e}");
-    }
-    let digits = (n.ceil() as u64).to_string();
-    let mut out = String::new();
-    for (i, ch) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i) % 3 == 0 {
-            out.push(',');
-        }
-        out.push(ch);
-    }
-    out
-}
+pub(crate) use mpm_core::sampling::count_text;
 
 /// The TOML spelling of a keyword enum value.
 pub(crate) fn serde_plain<T: Serialize>(v: &T) -> String {

@@ -3,6 +3,7 @@
 use super::ImplicitTlmpm;
 use crate::params::{FixedRegion, ImplicitParams, TimeScheme, TlmpmParams, Transfer};
 use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
+use mpm_core::Solver as _;
 use mpm_core::{
     Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector,
 };

@@ -14,7 +14,9 @@ use super::{add_lattice, components, result, sweep_labelled, tl_particles, Tlmpm
 use crate::cases::neo_hookean;
 use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind, DomainWalls};
-use mpm_core::{Columns, Dim, DimOps, GridSpec, Matrix, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{
+    Columns, Dim, DimOps, GridSpec, Matrix, Particles, Real, Solver, TimeStepPolicy, Vector,
+};
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use mpm_tlmpm::{FixedRegion, ImplicitParams, TlmpmParams};
 use std::collections::BTreeMap;

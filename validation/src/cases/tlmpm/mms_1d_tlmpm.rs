@@ -97,7 +97,8 @@ use crate::cases::{lattice, neo_hookean};
 use crate::report::{fit_rate, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
 use mpm_core::{
-    Columns, GridSpec, Kernel, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector,
+    Columns, GridSpec, Kernel, Matrix, ParticleInit, Particles, Real, Solver as _, TimeStepPolicy,
+    Vector,
 };
 use mpm_explicit::{BodyForce, ExplicitParams, ExplicitSolver};
 use mpm_tlmpm::{ClampPlane, FixedRegion, ImplicitParams, NewtonParams, TlmpmParams, Transfer};

@@ -20,7 +20,7 @@
 use super::{add_lattice, grid_around, result, sweep_labelled, tl_particles, SOLVER_IMPLICIT};
 use crate::cases::neo_hookean;
 use crate::report::{progress, CaseResult, Mode, Run};
-use mpm_core::{Dim, DimOps, Matrix, Real, TimeStepPolicy, Vector};
+use mpm_core::{Dim, DimOps, Matrix, Real, Solver, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     fitted_order, ImplicitParams, ImplicitTlmpm, LinearSolver, NewtonParams, SpdProjection,
     TlmpmParams,
@@ -113,7 +113,8 @@ where
     )
     .map_err(|e| format!("set-up error: {e}"))?;
     let t = Instant::now();
-    let info = solver.step().map_err(|e| e.to_string())?.newton;
+    solver.step().map_err(|e| e.to_string())?;
+    let info = solver.last_newton().clone();
     let wall = t.elapsed().as_secs_f64();
     let f = solver
         .particles()

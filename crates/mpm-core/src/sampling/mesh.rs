@@ -1,4 +1,5 @@
-//! Wavefront OBJ triangle meshes and their inside test, for bodies with `shape = "mesh"`.
+//! Triangle meshes in 3D, parsed from Wavefront OBJ text, and their inside test, for bodies
+//! clipped to a mesh ([`super::Body::mesh`]).
 //!
 //! Only `v` (vertex) and `f` (face) records are read; faces with more than three corners are
 //! split into a fan of triangles, `f 1/2/3` style references use their first number, and
@@ -8,9 +9,7 @@
 //! magnitude (Jacobson et al. 2013). The winding number is exact for closed meshes of either
 //! orientation and degrades gracefully for meshes with small holes.
 
-use crate::input::{read_text, MAX_MESH_BYTES};
 use rayon::prelude::*;
-use std::path::Path;
 
 /// A triangle mesh in 3D (m).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -24,15 +23,7 @@ pub struct TriMesh {
 /// Largest number of triangles read (memory and run-time guard).
 pub const MAX_TRIANGLES: usize = 2_000_000;
 
-/// Reads an OBJ file (a regular file of at most [`MAX_MESH_BYTES`]). Errors are one-line
-/// messages naming the file and, for syntax errors, the line.
-pub fn read_obj(path: &Path) -> Result<TriMesh, String> {
-    let text = read_text(path, MAX_MESH_BYTES)
-        .map_err(|e| format!("cannot read mesh file {}: {e}", path.display()))?;
-    parse_obj(&text).map_err(|e| format!("mesh file {}: {e}", path.display()))
-}
-
-/// Parses OBJ text.
+/// Parses OBJ text. Errors are one-line messages naming, for syntax errors, the line.
 pub fn parse_obj(text: &str) -> Result<TriMesh, String> {
     let mut mesh = TriMesh::default();
     for (ln, line) in text.lines().enumerate() {
