@@ -9,6 +9,7 @@
 //!   unknowns through the [`Unknown`] trait, with the operator a closure, a matrix or any
 //!   [`LinearOperator`], and the preconditioner a [`Preconditioner`] ([`Identity`], [`Jacobi`]).
 //!   Scratch memory lives in a reusable [`CgWorkspace`].
+//! - [`Anderson`]: Anderson acceleration of fixed-point iterations on the same unknowns.
 //! - [`SparseCholesky`]: sparse `L Lᵀ` with the symbolic factorisation computed once per pattern
 //!   and the numeric one per matrix; [`IncompleteCholesky`], the IC(0) preconditioner.
 //! - [`DofMap`]: grid nodes or cells ↔ compact unknown indices, rebuilt in place.
@@ -44,6 +45,7 @@
 //! quantity's unit follows from others (a residual is in the units of the right-hand side), the
 //! documentation says so.
 
+mod anderson;
 mod cg;
 mod cholesky;
 mod dof;
@@ -53,6 +55,7 @@ mod pattern;
 mod precond;
 mod unknown;
 
+pub use anderson::Anderson;
 pub use cg::{
     conjugate_gradient, CgError, CgInfo, CgParams, CgStop, CgWorkspace, InitialGuess,
     LinearOperator, OnIterationCap,

@@ -84,9 +84,11 @@ struct ObjectiveWork<const D: usize> {
 #[derive(Debug, Default)]
 struct Workspace<const D: usize> {
     target: Vec<Vector<D>>,
-    /// Residual `∇E` (N) at the state of the last [`ImplicitTlmpm::linearize`].
+    /// Residual `∇E` (N) at the state of the last `ImplicitTlmpm::linearize`.
+    #[cfg(feature = "bench")]
     probe_residual: Vec<Vector<D>>,
-    /// Time step (s) of the last [`ImplicitTlmpm::linearize`].
+    /// Time step (s) of the last `ImplicitTlmpm::linearize`.
+    #[cfg(feature = "bench")]
     probe_dt: Real,
     newton: NewtonWork<D>,
     objective: ObjectiveWork<D>,
@@ -218,210 +220,7 @@ where
         ))
     }
 
-    /// Linearises the Newton system of a step of `dt` (s) at the initial guess, without advancing
-    /// the simulation: runs the P2G, external-force and contact stages, sets the node
-    /// displacements to the explicit predictor, and computes the residual `∇E` and the
-    /// per-particle elasticity tensors there (exact tangent). Builds the sparsity pattern and the
-    /// symbolic factorisation if needed (also with the CG solver). With
-    /// [`Self::assemble_tangent`], [`Self::factorize_tangent`] and [`Self::solve_tangent`] this
-    /// exposes the phases of one Newton iteration, e.g. for benchmarks.
-    pub fn linearize(&mut self, dt: Real) -> Result<(), CholeskyError> {
-        self.analyse()?;
-        let core = &mut self.core;
-        core.momentum_to_grid();
-        core.external_forces();
-        core.contact(dt);
-        let ws = &mut self.ws;
-        let scheme = self.implicit.scheme;
-        start_step(core, &mut ws.target, &mut ws.objective.stress, scheme, dt);
-        let pot = potential(core, &ws.target, scheme.inertia(dt));
-        let o = &mut ws.objective;
-        let (np, nn) = (core.particles.len(), core.reference.num_nodes());
-        o.def_grad.resize(np, Matrix::<D>::zeros());
-        deformation(
-            pot.reference,
-            pot.def_grad,
-            &core.displacement,
-            &mut o.def_grad,
-        );
-        o.stress.resize(np, Matrix::<D>::zeros());
-        pot.law.weighted_stresses(&o.def_grad, &mut o.stress);
-        o.stress_scale.resize(np, 0.0);
-        pot.law.stress_scales(&o.def_grad, &mut o.stress_scale);
-        ws.probe_residual.resize(nn, Vector::<D>::zeros());
-        o.magnitude.resize(nn, 0.0);
-        pot.gradient(
-            &core.displacement,
-            (&o.stress, &o.stress_scale),
-            &mut ws.probe_residual,
-            &mut o.magnitude,
-        );
-        o.tensors.resize(np * tensor_len(D), 0.0);
-        pot.tensors(&o.def_grad, false, &mut o.tensors);
-        ws.probe_dt = dt;
-        Ok(())
-    }
-
-    /// Assembles the sparse Newton matrix `c M/Δt² + K` (lower triangle; c = 1 for backward Euler,
-    /// 4 for Newmark) from the tensors of the
-    /// last [`Self::linearize`].
-    pub fn assemble_tangent(&mut self) -> Result<(), CholeskyError> {
-        let inertia = self.implicit.scheme.inertia(self.ws.probe_dt);
-        let pot = potential(&self.core, &self.ws.target, inertia);
-        let ObjectiveWork {
-            sparse, tensors, ..
-        } = &mut self.ws.objective;
-        let sys = sparse.as_mut().ok_or(CholeskyError::NotFactorized)?;
-        assemble(&pot, tensors, &mut sys.matrix);
-        Ok(())
-    }
-
-    /// Numeric Cholesky factorisation of the last assembled Newton matrix (the symbolic
-    /// factorisation is reused), in f32 when `single` (see [`crate::NewtonParams::single_precision`]),
-    /// else in f64.
-    pub fn factorize_tangent(&mut self, single: bool) -> Result<(), CholeskyError> {
-        let sys = self.ws.objective.sparse.as_mut();
-        let sys = sys.ok_or(CholeskyError::NotFactorized)?;
-        if single {
-            sys.cholesky.factorize_single(&sys.matrix)
-        } else {
-            sys.cholesky.factorize(&sys.matrix)
-        }
-    }
-
-    /// Solves `H d = −∇E` with the last factorisation (triangular solves) and returns `‖d‖₂`
-    /// (m), the length of the Newton step.
-    pub fn solve_tangent(&mut self) -> Result<Real, CholeskyError> {
-        let sys = self.ws.objective.sparse.as_mut();
-        let sys = sys.ok_or(CholeskyError::NotFactorized)?;
-        let r = &self.ws.probe_residual;
-        for (e, &j) in self.core.constraints.dofs.nodes().iter().enumerate() {
-            for a in 0..D {
-                sys.rhs[e * D + a] = -r[j][a];
-            }
-        }
-        sys.cholesky.solve_in_place(&mut sys.rhs)?;
-        Ok(sys.rhs.iter().map(|x| x * x).sum::<Real>().sqrt())
-    }
-
     crate::core::shared_accessors!();
-
-    /// Coupling stage 1 of a step of `dt` (s) driven from outside, for a solver that adds its
-    /// own projection between the elastic solve and G2P (DIQ-MPM §4.3's operator splitting):
-    /// P2G, external forces, contact and the Newton elastic solve, which leave the intermediate
-    /// node velocities `V* = u/Δt` in [`Self::node_velocities`]. Nothing is committed; a failure
-    /// leaves the particles untouched.
-    pub fn elastic_predictor(
-        &mut self,
-        dt: Real,
-    ) -> Result<Option<ContactStats>, mpm_core::Failure<crate::NewtonError>> {
-        if self.implicit.linear == LinearSolver::Cholesky {
-            self.analyse()
-                .map_err(|e| Failure::Solve(Stage::Solve, linear_error(e)))?;
-        }
-        self.ws.objective.factored = false;
-        let (core, ws, stats, times) = (
-            &mut self.core,
-            &mut self.ws,
-            &mut self.stats,
-            &mut self.newton_times,
-        );
-        Ok(predict(core, ws, stats, times, &self.implicit, dt)?.1)
-    }
-
-    /// Coupling stage 1b: adds `delta` (N, one per active node) to the external node forces of
-    /// the current attempt of `dt` (s) and solves the elastic step again, starting Newton from
-    /// the last solution, so that [`Self::node_velocities`] become the elastic response to the
-    /// forces a coupling projection applies (the partitioned iteration of DIQ-MPM's coupled
-    /// step). Call after [`Self::elastic_predictor`] of the same attempt.
-    ///
-    /// With the Cholesky solver the re-solve first runs chord iterations: Newton's iteration
-    /// with the factor of the attempt's last tangent kept (a triangular solve per iteration, no
-    /// new tangent or factorisation), to the same tolerance, at most 8 times. The change between
-    /// passes is a force increment, linear in the potential, so the old tangent is close and the
-    /// chord converges in a few iterations; when it does not, the full Newton re-solve runs from
-    /// the same start.
-    pub fn resolve_with_node_forces(
-        &mut self,
-        dt: Real,
-        delta: &[Vector<D>],
-    ) -> Result<(), mpm_core::Failure<crate::NewtonError>> {
-        for (f, d) in self.core.external.iter_mut().zip(delta) {
-            *f += d;
-        }
-        let warm = self.core.displacement.clone();
-        let (core, ws, times) = (&mut self.core, &mut self.ws, &mut self.newton_times);
-        let chord = ws.objective.factored;
-        let implicit = self.implicit;
-        self.stats.time(Stage::Solve, || {
-            if chord {
-                let mut params = implicit;
-                params.newton.max_iterations = params.newton.max_iterations.min(CHORD_ITERATIONS);
-                ws.objective.frozen = true;
-                let r = solve_grid(core, ws, times, &params, dt, Some(&warm));
-                ws.objective.frozen = false;
-                if r.is_ok() {
-                    return Ok(());
-                }
-            }
-            solve_grid(core, ws, times, &implicit, dt, Some(&warm)).map(|_| ())
-        })
-    }
-
-    /// The node velocities of the current attempt (m/s), `u_i/Δt` per active node, after
-    /// [`Self::elastic_predictor`] or [`Self::set_node_velocities`].
-    pub fn node_velocities(&self, dt: Real) -> Vec<Vector<D>> {
-        self.core.displacement.iter().map(|u| u / dt).collect()
-    }
-
-    /// Replaces the node velocities of the current attempt (m/s; one per active node) by `v`,
-    /// keeping the prescribed components of fixed nodes.
-    pub fn set_node_velocities(&mut self, v: &[Vector<D>], dt: Real) {
-        let c = &self.core.constraints;
-        for (i, (u, vi)) in self.core.displacement.iter_mut().zip(v).enumerate() {
-            *u = c.displacement(i, vi * dt, dt);
-        }
-    }
-
-    /// Whether active node `i` has a prescribed (fixed) component, so that a coupling
-    /// projection must treat it as infinitely heavy.
-    pub fn node_is_fixed(&self, i: usize) -> bool {
-        (0..D).any(|a| !self.core.constraints.is_free(i, a))
-    }
-
-    /// Coupling stage 2: G2P from the current node velocities with the deformation update and
-    /// the guard checks, into scratch storage (the particles are not modified yet).
-    pub fn transfer_back(&mut self, dt: Real) -> Result<(), mpm_core::Failure<crate::NewtonError>> {
-        let core = &mut self.core;
-        self.stats.time(Stage::G2P, || core.grid_to_particles(dt))
-    }
-
-    /// A-ULMPM, after [`Self::transfer_back`]: the factor by which each particle's plastic
-    /// return mapping changed its elastic volume, `det F_E / det F_E^trial` (1 for elastic
-    /// particles); `None` without reference updates.
-    pub fn plastic_volume_factors(&self) -> Option<Vec<Real>> {
-        self.core
-            .adaptive
-            .as_ref()
-            .map(|a| a.plastic_volume_factors())
-    }
-
-    /// Coupling stage 3, once the whole coupled attempt of `dt` (s) is accepted: writes the
-    /// G2P results into the particles, advances time and the step count, and runs the A-ULMPM
-    /// reference update when it is on. Returns whether the reference moved.
-    pub fn commit_step(&mut self, dt: Real) -> Result<bool, mpm_core::Failure<crate::NewtonError>> {
-        let core = &mut self.core;
-        self.stats.time(Stage::Commit, || core.commit(dt));
-        core.time += dt;
-        core.steps += 1;
-        let updated = self
-            .stats
-            .time(Stage::ReferenceUpdate, || core.reference_update())?;
-        if updated {
-            self.ws.objective.sparse = None;
-        }
-        Ok(updated)
-    }
 
     /// Continues from a checkpoint: the solver must have been built from the checkpoint's
     /// particles with the original parameters; `state` (from [`Self::state`]) restores the
@@ -478,25 +277,6 @@ where
     /// The step bound (s) of the adaptive policy before `dt_max`, `cfl · Δx / max_p |v_p|`.
     pub fn stable_dt(&self) -> Real {
         self.core.stable_dt(false)
-    }
-}
-
-/// The incremental potential of a step with inertia coefficient `inertia` (1/s², see
-/// [`TimeScheme::inertia`]) and inertial prediction `target` (m) at the solver's current state.
-fn potential<'a, const D: usize>(
-    core: &'a Core<D>,
-    target: &'a [Vector<D>],
-    inertia: Real,
-) -> Potential<'a, D> {
-    let (law, def_grad) = split_law(&core.models, &core.particles, core.adaptive.as_ref());
-    Potential {
-        reference: &core.reference,
-        constraints: &core.constraints,
-        law,
-        def_grad,
-        target,
-        external: &core.external,
-        inertia,
     }
 }
 
@@ -962,3 +742,9 @@ pub(crate) mod tests;
 
 #[cfg(test)]
 mod scheme_tests;
+
+mod coupling;
+#[cfg(feature = "bench")]
+mod probe;
+
+pub use coupling::{Predicted, Projected, Transferred};

@@ -71,7 +71,7 @@ pub use crate::core::{build, NewtonTimes, TlmpmState, TotalLagrangian};
 pub use contact::{ContactInput, ContactRadius, ContactStats, Obstacle, ParticleContact};
 pub use error::{NewtonError, StepError};
 pub use explicit::ExplicitTlmpm;
-pub use implicit::ImplicitTlmpm;
+pub use implicit::{ImplicitTlmpm, Predicted, Projected, Transferred};
 pub use loads::{NodalLoad, NodeSelection, SurfaceTraction};
 pub use mpm_linalg::CholeskyError;
 pub use newton::{fitted_order, NewtonInfo};

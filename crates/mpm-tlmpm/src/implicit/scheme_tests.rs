@@ -170,19 +170,22 @@ fn chord_resolve_lands_on_newtons_solution_without_a_new_factorisation() {
     let nh = ElasticModel::NeoHookean(Lame::from_young_poisson(YOUNGS, 0.3));
     let mut chord = bar_of(TimeScheme::BackwardEuler, dt, nh);
     let mut newton = bar_of(TimeScheme::BackwardEuler, dt, nh);
-    chord.elastic_predictor(dt).unwrap();
-    newton.elastic_predictor(dt).unwrap();
-    let start = newton.node_velocities(dt);
+    let at_chord = chord.elastic_predictor(dt).unwrap();
+    let at_newton = newton.elastic_predictor(dt).unwrap();
+    let start = newton.node_velocities(&at_newton);
     let delta = vec![Vector::<2>::new(4.0 / start.len() as Real, 0.0); start.len()];
     let factorised = chord.newton_times.factorization;
-    chord.resolve_with_node_forces(dt, &delta).unwrap();
+    chord.resolve_with_node_forces(&at_chord, &delta).unwrap();
     assert_eq!(
         chord.newton_times.factorization, factorised,
         "the chord iterations must not factorise (they fell back to Newton)"
     );
     newton.ws.objective.factored = false;
-    newton.resolve_with_node_forces(dt, &delta).unwrap();
-    let (vc, vn) = (chord.node_velocities(dt), newton.node_velocities(dt));
+    newton.resolve_with_node_forces(&at_newton, &delta).unwrap();
+    let (vc, vn) = (
+        chord.node_velocities(&at_chord),
+        newton.node_velocities(&at_newton),
+    );
     let change = vn
         .iter()
         .zip(&start)
