@@ -602,6 +602,55 @@ pub fn line_of(text: &str, prefix: &str) -> usize {
         .unwrap_or_else(|| panic!("no line starting with {prefix:?}"))
 }
 
+/// Runs `cmd` (check or run) on `text` written to `dir/name` and asserts exit code 2, a
+/// message naming `key`, and — when `line_prefix` is given — the location `file:LINE:COL`
+/// of the line starting with it.
+pub fn expect_bad(
+    dir: &Path,
+    name: &str,
+    text: &str,
+    cmd: &str,
+    key: &str,
+    line_prefix: Option<&str>,
+) {
+    let path = write(dir, name, text);
+    let out = dir.join(format!("{name}.out"));
+    let p = path.to_string_lossy().into_owned();
+    let o = match cmd {
+        "run" => cli(&["run", &p, "--quiet"]),
+        _ => cli(&["check", &p]),
+    };
+    let err = stderr(&o);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{name}: expected exit code 2, stderr:\n{err}"
+    );
+    assert!(!err.contains("panicked"), "{name}: panic:\n{err}");
+    assert!(
+        err.contains(&format!("`{key}`")),
+        "{name}: message does not name `{key}`:\n{err}"
+    );
+    if let Some(prefix) = line_prefix {
+        let line = line_of(text, prefix);
+        let loc = format!("{p}:{line}:");
+        assert!(err.contains(&loc), "{name}: no location {loc}:\n{err}");
+        // The column follows the line number.
+        let after = &err[err.find(&loc).unwrap() + loc.len()..];
+        assert!(
+            after.starts_with(|c: char| c.is_ascii_digit()),
+            "{name}: no column after {loc}:\n{err}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(out);
+}
+
+/// The stderr of `check` on `text` written to `dir/name`.
+pub fn check_stderr(dir: &Path, name: &str, text: &str) -> String {
+    let p = write(dir, name, text);
+    stderr(&cli(&["check", &p.to_string_lossy()]))
+}
+
 /// A TLMPM scene: a snow column collapsing on penalty walls with A-ULMPM reference updates
 /// (implicit, Newton), checkpointing every 10 steps.
 pub const TLMPM_SNOW_2D: &str = r#"
