@@ -24,7 +24,7 @@ use criterion::{Criterion, SamplingMode};
 use mpm_core::boundary::{Boundaries, Contact, DomainWalls};
 use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
 use mpm_core::{
-    on_pool, Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Solver, Vector,
+    on_pool, Body, Columns, GridSpec, Material, ParticlesBuilder, Shape, Solver, Vector,
 };
 use mpm_diq::{
     Constraints, DiqCoupled, DiqFluid, DiqParams, PressureMethod, PressureParams, PressureSystem,
@@ -160,6 +160,14 @@ fn bench_pressure(c: &mut Criterion) {
     group.finish();
 }
 
+/// The box `[lo, hi]` (m) of material `material` (its density from the material table) on the
+/// lattice of spacing `h` (m) aligned with `lo`: points `lo + (k + ½) h`, axis 0 fastest.
+fn lattice<const D: usize>(lo: [f64; D], hi: [f64; D], h: f64, material: u32) -> Body<D> {
+    Body::new(Shape::cuboid(lo, hi), material)
+        .lattice(1)
+        .lattice_cells(Vector::<D>::from(lo), h)
+}
+
 /// The 3D dam break of the fluid-system benchmark: a 0.4 × 0.5 × 0.6 m water column in a
 /// 1 × 0.5 × 1 m box with free-slip walls, Δx = 1/50 m, 2³ particles per cell (120 000
 /// particles), advanced `steps` steps so that the flow moves; returns the solver.
@@ -171,28 +179,6 @@ fn dam_break_3d(steps: usize) -> DiqFluid<3> {
         dx,
         [n + 3, n / 2 + 3, n + 3],
     );
-    let h = dx / 2.0;
-    let counts = [(0.4 / h) as usize, (0.5 / h) as usize, (0.6 / h) as usize];
-    let mut ps = Particles::new(Columns::default());
-    for k in 0..counts[2] {
-        for j in 0..counts[1] {
-            for i in 0..counts[0] {
-                let x = Vector::<3>::new(
-                    (i as f64 + 0.5) * h,
-                    (j as f64 + 0.5) * h,
-                    (k as f64 + 0.5) * h,
-                );
-                ps.push(ParticleInit {
-                    x,
-                    v: Vector::<3>::zeros(),
-                    mass: 1000.0 * h * h * h,
-                    volume0: h * h * h,
-                    material: 0,
-                    affine: Matrix::<3>::zeros(),
-                });
-            }
-        }
-    }
     let water = Material::Fluid(FluidMaterial {
         density: 1000.0,
         eos: Tait {
@@ -209,8 +195,15 @@ fn dam_break_3d(steps: usize) -> DiqFluid<3> {
         }),
         colliders: Vec::new(),
     };
+    let materials = vec![water];
+    // (k + ½) h from the origin, h = Δx/2; no volume ratio column (DIQ's fluid is incompressible).
+    let column = lattice([0.0; 3], [0.4, 0.5, 0.6], dx / 2.0, 0);
+    let ps = ParticlesBuilder::with_columns(&spec, &materials, Columns::default())
+        .with(&column)
+        .expect("the column lies inside the grid")
+        .build();
     let mut fluid =
-        DiqFluid::new(spec, DiqParams::default(), vec![water], walls, ps).expect("valid set-up");
+        DiqFluid::new(spec, DiqParams::default(), materials, walls, ps).expect("valid set-up");
     for _ in 0..steps {
         fluid.step().expect("stable step");
     }
@@ -287,36 +280,6 @@ fn floating_block_2d(n: usize) -> DiqCoupled<2> {
     let dx = 1.0 / n as f64;
     let h = dx / 2.0;
     let (x0, x1, bottom, top) = (0.45, 0.55, 0.45, 0.55);
-    let mut ps = Particles::new(Columns {
-        deformation_gradient: true,
-        ..Columns::default()
-    });
-    let lattice = |ps: &mut Particles<2>, lo: [f64; 2], hi: [f64; 2], solid: bool| {
-        let counts = [
-            ((hi[0] - lo[0]) / h).round() as usize,
-            ((hi[1] - lo[1]) / h).round() as usize,
-        ];
-        for j in 0..counts[1] {
-            for i in 0..counts[0] {
-                let x =
-                    Vector::<2>::new(lo[0] + (i as f64 + 0.5) * h, lo[1] + (j as f64 + 0.5) * h);
-                let in_block = x[0] > x0 && x[0] < x1 && x[1] > bottom;
-                if solid || !in_block {
-                    let rho = if solid { 500.0 } else { 1000.0 };
-                    ps.push(ParticleInit {
-                        x,
-                        v: Vector::<2>::zeros(),
-                        mass: rho * h * h,
-                        volume0: h * h,
-                        material: u32::from(solid),
-                        affine: Matrix::<2>::zeros(),
-                    });
-                }
-            }
-        }
-    };
-    lattice(&mut ps, [0.0, 0.0], [1.0, 0.5], false);
-    lattice(&mut ps, [x0, bottom], [x1, top], true);
     let materials = vec![
         Material::Fluid(FluidMaterial {
             density: 1000.0,
@@ -340,8 +303,22 @@ fn floating_block_2d(n: usize) -> DiqCoupled<2> {
         }),
         colliders: Vec::new(),
     };
+    let spec = GridSpec::new(Vector::<2>::from_element(-dx), dx, [n + 3, n + 3]);
+    // The water (material 0) less the block's place, then the block (material 1).
+    let water = lattice([0.0, 0.0], [1.0, 0.5], h, 0)
+        .keep(move |x| !(x[0] > x0 && x[0] < x1 && x[1] > bottom));
+    let block = lattice([x0, bottom], [x1, top], h, 1);
+    let columns = Columns {
+        deformation_gradient: true,
+        ..Columns::default()
+    };
+    let mut ps = ParticlesBuilder::with_columns(&spec, &materials, columns);
+    for body in [&water, &block] {
+        ps.add(body).expect("the tank lies inside the grid");
+    }
+    let ps = ps.build();
     DiqCoupled::new(
-        GridSpec::new(Vector::<2>::from_element(-dx), dx, [n + 3, n + 3]),
+        spec,
         DiqParams::default(),
         SolidParams::default(),
         materials,

@@ -17,7 +17,7 @@ use criterion::{BenchmarkGroup, Criterion, SamplingMode, Throughput};
 use mpm_benches::jelly;
 use mpm_core::solver::StageTime;
 use mpm_core::{
-    Columns, GridSpec, Matrix, ParticleInit, Particles, Real, Solver, TimeStepPolicy, Vector,
+    Body, Columns, GridSpec, Matrix, ParticlesBuilder, Real, Shape, Solver, TimeStepPolicy, Vector,
 };
 use mpm_tlmpm::{ImplicitParams, ImplicitTlmpm, NewtonParams, TlmpmParams};
 use std::hint::black_box;
@@ -42,25 +42,29 @@ fn scene(cells: usize, newton: NewtonParams) -> ImplicitTlmpm<2> {
     let h = dx / 2.0;
     let n = 2 * cells;
     let centre = Vector::<2>::from_element(0.5 * cells as Real * dx);
-    let mut particles = Particles::new(Columns {
-        deformation_gradient: true,
-        ..Columns::default()
-    });
-    let rho = jelly().density();
-    for k in 0..n * n {
-        let x = Vector::<2>::new(((k % n) as Real + 0.5) * h, ((k / n) as Real + 0.5) * h);
-        let d = x - centre;
-        particles.push(ParticleInit {
-            x,
-            v: Vector::<2>::new(0.5 * d.x - 2.0 * d.y, 0.5 * d.y + 2.0 * d.x),
-            mass: rho * h * h,
-            volume0: h * h,
-            material: 0,
-            affine: Matrix::<2>::zeros(),
-        });
-    }
     let margin = Vector::<2>::from_element(3.0 * dx);
     let grid = GridSpec::covering(-margin, centre * 2.0 + margin, dx);
+    let materials = vec![jelly()];
+    // n × n particles at (k + ½) h from the origin, spinning and stretching about the centre
+    // (the affine columns start at zero).
+    let block = Body::new(Shape::cuboid([0.0, 0.0], [n as Real * h, n as Real * h]), 0)
+        .lattice(1)
+        .lattice_cells(Vector::<2>::zeros(), h)
+        .velocity_field(move |x| {
+            let d = x - centre;
+            (
+                Vector::<2>::new(0.5 * d.x - 2.0 * d.y, 0.5 * d.y + 2.0 * d.x),
+                Matrix::<2>::zeros(),
+            )
+        });
+    let columns = Columns {
+        deformation_gradient: true,
+        ..Columns::default()
+    };
+    let particles = ParticlesBuilder::with_columns(&grid, &materials, columns)
+        .with(&block)
+        .expect("the block lies inside the grid")
+        .build();
     let params = TlmpmParams {
         gravity: Vector::<2>::new(0.0, -9.81),
         time_step: TimeStepPolicy::Fixed { dt: DT },
@@ -73,7 +77,7 @@ fn scene(cells: usize, newton: NewtonParams) -> ImplicitTlmpm<2> {
             newton,
             ..ImplicitParams::default()
         },
-        vec![jelly()],
+        materials,
         particles,
     )
     .expect("benchmark scene")

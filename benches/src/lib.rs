@@ -22,8 +22,7 @@
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
 use mpm_core::{
-    Columns, Dim, DimOps, GridSpec, Material, Matrix, ParticleInit, Particles, Real,
-    TimeStepPolicy, Vector,
+    Body, Dim, DimOps, GridSpec, Material, ParticlesBuilder, Real, Shape, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 
@@ -102,53 +101,50 @@ pub fn water() -> Material {
     })
 }
 
-/// Fills the grid-aligned box of cells `[lo, hi)` (cell indices) of `spec` with
-/// [`PER_AXIS`]`^D` particles per cell at rest, of material `material` and density `rho`.
-fn fill_cells<const D: usize>(
-    particles: &mut Particles<D>,
+/// The grid-aligned box of cells `[lo, hi)` (cell indices) of `spec` filled with
+/// [`PER_AXIS`]`^D` particles per cell at rest, of material `material` (its density from the
+/// material table).
+fn cells<const D: usize>(
     spec: &GridSpec<D>,
     lo: [usize; D],
     hi: [usize; D],
     material: u32,
-    rho: Real,
-) {
-    let h = spec.dx / PER_AXIS as Real;
-    let counts: [usize; D] = std::array::from_fn(|a| (hi[a] - lo[a]) * PER_AXIS);
-    let total: usize = counts.iter().product();
-    let vol = h.powi(D as i32);
-    for k in 0..total {
-        let mut r = k;
-        let x = Vector::<D>::from_fn(|a, _| {
-            let i = r % counts[a];
-            r /= counts[a];
-            spec.origin[a] + lo[a] as Real * spec.dx + (i as Real + 0.5) * h
-        });
-        particles.push(ParticleInit {
-            x,
-            v: Vector::<D>::zeros(),
-            mass: rho * vol,
-            volume0: vol,
-            material,
-            affine: Matrix::<D>::zeros(),
-        });
-    }
+) -> Body<D> {
+    let corner =
+        |c: [usize; D]| Vector::<D>::from_fn(|a, _| spec.origin[a] + c[a] as Real * spec.dx);
+    Body::new(
+        Shape::Box {
+            min: corner(lo),
+            max: corner(hi),
+        },
+        material,
+    )
+    .lattice(PER_AXIS)
+    .lattice_cells(corner(lo), spec.dx)
 }
 
-/// Builds the solver for a grid of spacing `1/n` m and `domain_cells` cells per axis from the
-/// origin with the given particles, then fixes the time step at [`DT_FRACTION`] of the stable
-/// bound.
+/// The grid of spacing `1/n` m with `domain_cells` cells per axis from the origin.
+fn grid<const D: usize>(n: usize, domain_cells: usize) -> GridSpec<D> {
+    GridSpec::new(Vector::<D>::zeros(), 1.0 / n as Real, [domain_cells + 1; D])
+}
+
+/// Builds the solver on `spec` with the particles of `bodies`, then fixes the time step at
+/// [`DT_FRACTION`] of the stable bound.
 fn build<const D: usize>(
-    n: usize,
-    domain_cells: usize,
+    spec: GridSpec<D>,
     materials: Vec<Material>,
-    fill: impl FnOnce(&mut Particles<D>, &GridSpec<D>),
+    bodies: &[Body<D>],
 ) -> ExplicitSolver<D>
 where
     Dim<D>: DimOps<D>,
 {
-    let spec = GridSpec::new(Vector::<D>::zeros(), 1.0 / n as Real, [domain_cells + 1; D]);
-    let mut particles = Particles::<D>::new(Columns::for_materials(&materials));
-    fill(&mut particles, &spec);
+    let mut builder = ParticlesBuilder::new(&spec, &materials);
+    for body in bodies {
+        builder
+            .add(body)
+            .expect("the benchmark's bodies lie inside the grid");
+    }
+    let particles = builder.build();
     let mut gravity = Vector::<D>::zeros();
     gravity[1] = -GRAVITY;
     let params = ExplicitParams {
@@ -192,26 +188,24 @@ where
 /// Exactly [`Size::particles`]`(2)` particles (water first, then jelly).
 pub fn scene_2d(size: Size) -> ExplicitSolver<2> {
     let n = size.cells(2);
-    let solver = build::<2>(n, n, vec![jelly(), water()], |ps, spec| {
-        let water_lo = [n / 64, n / 64];
-        fill_cells(
-            ps,
-            spec,
+    let spec = grid::<2>(n, n);
+    let water_lo = [n / 64, n / 64];
+    let jelly_lo = [7 * n / 16, n / 2];
+    let bodies = [
+        cells(
+            &spec,
             water_lo,
             [water_lo[0] + n / 2, water_lo[1] + n / 4],
             1,
-            1000.0,
-        );
-        let jelly_lo = [7 * n / 16, n / 2];
-        fill_cells(
-            ps,
-            spec,
+        ),
+        cells(
+            &spec,
             jelly_lo,
             [jelly_lo[0] + n / 2, jelly_lo[1] + n / 4],
             0,
-            1000.0,
-        );
-    });
+        ),
+    ];
+    let solver = build(spec, vec![jelly(), water()], &bodies);
     assert_eq!(solver.particles().len(), size.particles(2));
     solver
 }
@@ -233,17 +227,10 @@ pub const SPARSE_DOMAIN_CELLS: usize = 512;
 pub fn scene_3d_in(size: Size, domain_cells: usize) -> ExplicitSolver<3> {
     let n = size.cells(3);
     assert!(domain_cells >= n, "the domain holds the unit box");
-    let solver = build::<3>(n, domain_cells, vec![jelly()], |ps, spec| {
-        let lo = [n / 4, 3 * n / 8, n / 4];
-        fill_cells(
-            ps,
-            spec,
-            lo,
-            [lo[0] + n / 2, lo[1] + n / 2, lo[2] + n / 2],
-            0,
-            1000.0,
-        );
-    });
+    let spec = grid::<3>(n, domain_cells);
+    let lo = [n / 4, 3 * n / 8, n / 4];
+    let cube = cells(&spec, lo, [lo[0] + n / 2, lo[1] + n / 2, lo[2] + n / 2], 0);
+    let solver = build(spec, vec![jelly()], &[cube]);
     assert_eq!(solver.particles().len(), size.particles(3));
     solver
 }

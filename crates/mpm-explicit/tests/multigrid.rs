@@ -592,7 +592,7 @@ fn viscous_shear_mode_decays_at_the_analytic_rate() {
         (Vector::<2>::new(0.05, y0), Vector::<2>::new(0.95, y0 + h)),
         2,
         (0, rho),
-        |x| {
+        move |x| {
             let s = (k * (x.y - y0)).sin();
             let v = Vector::<2>::new(amp * (k * (x.y - y0)).cos(), 0.0);
             let c = Matrix::<2>::new(0.0, -amp * k * s, 0.0, 0.0);

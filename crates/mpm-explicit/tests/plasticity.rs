@@ -34,7 +34,7 @@ fn drop_block(material: Material, v0: Vector<2>) -> ExplicitSolver<2> {
         (Vector::<2>::new(0.3, 0.06), Vector::<2>::new(0.5, 0.4)),
         2,
         (0, rho),
-        |_| (v0, Matrix::<2>::zeros()),
+        move |_| (v0, Matrix::<2>::zeros()),
     );
     let params = ExplicitParams {
         gravity: Vector::<2>::new(0.0, -9.81),
@@ -98,9 +98,7 @@ fn sand_stays_inside_its_yield_cone() {
     });
     let mut s = drop_block(material, Vector::<2>::zeros());
     let width0 = spread(&s);
-    while s.time() < 0.3 {
-        s.step().unwrap();
-    }
+    s.run_until(0.3).unwrap();
     let states = s.particles().plastic.clone().unwrap();
     s.step().unwrap();
     let f = s.particles().def_grad.as_ref().unwrap();

@@ -9,7 +9,9 @@ use mpm_core::boundary::{Boundaries, WallTreatment};
 use mpm_core::geostatic::set_geostatic;
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::quasistatic::{Damping, GravityRamp};
-use mpm_core::{GridSpec, Material, Matrix, Real, Solver, Stage, TimeStepPolicy, Vector};
+use mpm_core::{
+    run_until_with, GridSpec, Material, Matrix, Real, Solver, Stage, TimeStepPolicy, Vector,
+};
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 
 const WIDTH: Real = 0.2;
@@ -97,8 +99,7 @@ struct Record {
 fn run(solver: &mut ExplicitSolver<2>, duration: Real) -> Record {
     let fl = fluid();
     let (mut peak, mut lo, mut hi, mut last) = (0.0, Real::INFINITY, Real::NEG_INFINITY, 0.0);
-    while solver.time() < duration {
-        solver.step().unwrap();
+    run_until_with(solver, duration, |solver, _| {
         let d = solver.diagnostics();
         peak = Real::max(peak, d.kinetic_energy);
         if solver.time() > 0.75 * duration {
@@ -115,7 +116,8 @@ fn run(solver: &mut ExplicitSolver<2>, duration: Real) -> Record {
             hi = Real::max(hi, error);
             last = error;
         }
-    }
+    })
+    .unwrap();
     Record {
         peak_kinetic: peak,
         final_kinetic: solver.diagnostics().kinetic_energy,

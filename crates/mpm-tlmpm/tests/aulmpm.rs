@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{add_lattice, block, grid_around, neo_hookean};
+use common::{block, grid_around, lattice, neo_hookean, particles_of};
 use mpm_core::boundary::ColliderShape;
 use mpm_core::material::{DruckerPrager, ElasticModel, Lame, Plasticity, Snow, SolidMaterial};
 use mpm_core::Solver as _;
@@ -88,7 +88,7 @@ impl Solver {
 fn a_trigger_that_never_fires_is_bitwise_tlmpm() {
     let bounds = (Vector::<2>::new(0.3, 0.3), Vector::<2>::new(0.7, 0.7));
     let c = Vector::<2>::from_element(0.5);
-    let particles = block(bounds, 0.05, 1000.0, |x| {
+    let particles = block(&grid_around(bounds, 0.1, 3), bounds, 0.05, 1000.0, |x| {
         let d = x - c;
         Vector::<2>::new(0.5 * d.x - 2.0 * d.y, 0.5 * d.y + 2.0 * d.x)
     });
@@ -161,23 +161,19 @@ fn snow(lame: Lame) -> Material {
 /// width (m) and the smallest snow plastic volume ratio `J_P`.
 fn collapse(material: Material, implicit: bool, end: Real) -> (Real, Real) {
     let (dx, radius) = (0.02, 0.01);
-    let mut particles = Particles::new(Columns {
-        deformation_gradient: true,
-        plastic: true,
-        ..Columns::default()
-    });
     let bounds = (
         Vector::<2>::new(0.3, radius),
         Vector::<2>::new(0.4, 0.2 + radius),
     );
-    add_lattice(
-        &mut particles,
-        bounds,
-        dx / 2.0,
-        (material.density(), 0),
-        |_| true,
-        |_| Vector::<2>::zeros(),
-    );
+    // The grid covers wherever the particles may go: the reference moves with them.
+    let domain = (Vector::<2>::new(0.0, -0.05), Vector::<2>::new(0.7, 0.3));
+    let grid = grid_around(domain, dx, 3);
+    let plastic = Columns {
+        plastic: true,
+        ..Columns::default()
+    };
+    let column = lattice(bounds, dx / 2.0, (material.density(), 0));
+    let particles = particles_of(&grid, plastic, &[column]);
     let mass: Real = particles.mass.iter().sum();
     let floor = Obstacle::Collider(ColliderShape::HalfSpace {
         point: Vector::<2>::zeros(),
@@ -198,9 +194,6 @@ fn collapse(material: Material, implicit: bool, end: Real) -> (Real, Real) {
         }),
         ..TlmpmParams::default()
     };
-    // The grid covers wherever the particles may go: the reference moves with them.
-    let domain = (Vector::<2>::new(0.0, -0.05), Vector::<2>::new(0.7, 0.3));
-    let grid = grid_around(domain, dx, 3);
     let dp = match &material {
         Material::Solid(SolidMaterial {
             plasticity: Plasticity::DruckerPrager(dp),

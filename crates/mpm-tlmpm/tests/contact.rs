@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{add_lattice, block, grid_around, momentum, neo_hookean};
+use common::{block, grid_around, lattice, momentum, neo_hookean, particles_of};
 use mpm_core::boundary::ColliderShape;
 use mpm_core::Solver as _;
 use mpm_core::{Columns, Particles, Real, TimeStepPolicy, Vector};
@@ -107,22 +107,18 @@ impl Solver {
 /// disk.
 fn two_disks(v0: Real) -> Particles<2> {
     let r = 0.2;
-    let mut particles = Particles::new(Columns {
-        deformation_gradient: true,
-        ..Columns::default()
-    });
-    for (c, v) in [(0.5, v0), (1.0, -v0)] {
+    let disks = [(0.5, v0), (1.0, -v0)].map(|(c, v)| {
         let c = Vector::<2>::new(c, 0.5);
         let bounds = (
             c - Vector::<2>::from_element(r),
             c + Vector::<2>::from_element(r),
         );
-        let keep = |x: &Vector<2>| (x - c).norm() <= r;
-        add_lattice(&mut particles, bounds, DX / 2.0, (1000.0, 0), keep, |_| {
-            Vector::<2>::new(v, 0.0)
-        });
-    }
-    particles
+        lattice(bounds, DX / 2.0, (1000.0, 0))
+            .keep(move |x| (x - c).norm() <= r)
+            .velocity(Vector::<2>::new(v, 0.0))
+    });
+    let domain = (Vector::<2>::new(0.3, 0.3), Vector::<2>::new(1.2, 0.7));
+    particles_of(&grid_around(domain, DX, 3), Columns::default(), &disks)
 }
 
 fn contact_params(obstacles: Vec<Obstacle<2>>) -> TlmpmParams<2> {
@@ -224,7 +220,13 @@ fn colliding_disks_bounce_apart_implicit() {
 fn block_on_wall(implicit: bool) {
     let wall = 0.1;
     let bounds = (Vector::<2>::new(0.3, 0.3), Vector::<2>::new(0.6, 0.5));
-    let particles = block(bounds, DX / 2.0, 1000.0, |_| Vector::<2>::zeros());
+    let particles = block(
+        &grid_around(bounds, DX, 3),
+        bounds,
+        DX / 2.0,
+        1000.0,
+        |_| Vector::<2>::zeros(),
+    );
     let floor = Obstacle::Collider(ColliderShape::HalfSpace {
         point: Vector::<2>::new(0.0, wall),
         normal: Vector::<2>::new(0.0, 1.0),
@@ -310,8 +312,10 @@ fn diagnostics_count_the_contact_potential() {
         point: Vector::<2>::zeros(),
         normal: Vector::<2>::new(0.0, 1.0),
     });
+    let bounds = (Vector::<2>::new(0.4, 0.0), Vector::<2>::new(0.5, 0.1));
     let particles = block(
-        (Vector::<2>::new(0.4, 0.0), Vector::<2>::new(0.5, 0.1)),
+        &grid_around(bounds, DX, 3),
+        bounds,
         DX / 2.0,
         1000.0,
         |_| Vector::<2>::zeros(),

@@ -76,7 +76,9 @@ fn loaded_free_block(implicit: bool, ramped: bool) -> (Real, Particles<2>) {
         }],
         ..TlmpmParams::default()
     };
-    let particles = block(bounds, dx / 2.0, rho, |_| V2::zeros());
+    let particles = block(&grid_around(bounds, dx, 3), bounds, dx / 2.0, rho, |_| {
+        V2::zeros()
+    });
     let spec = grid_around(bounds, dx, 3);
     let materials = vec![uniaxial(e, rho)];
     let total = |t: Real| {
@@ -180,7 +182,7 @@ fn bar_elongation_error(dx: Real) -> Real {
         tractions: vec![end(-1.0, 0.5 * h, -1.0), end(len - 0.5 * h, 2.0, 1.0)],
         ..TlmpmParams::default()
     };
-    let particles = block(bounds, h, rho, |_| V2::zeros());
+    let particles = block(&grid_around(bounds, dx, 3), bounds, h, rho, |_| V2::zeros());
     let mut s = ImplicitTlmpm::new(
         grid_around(bounds, dx, 3),
         params,

@@ -28,7 +28,9 @@ where
         Vector::<D>::from_element(0.7),
     );
     let c = Vector::<D>::from_element(0.5);
-    let particles = block(bounds, 0.05, 1000.0, |x| a * (x - c));
+    let particles = block(&grid_around(bounds, 0.1, 3), bounds, 0.05, 1000.0, |x| {
+        a * (x - c)
+    });
     let params = TlmpmParams {
         time_step: TimeStepPolicy::Fixed { dt },
         ..TlmpmParams::default()
@@ -242,7 +244,9 @@ fn linear_momentum_is_conserved_without_gravity_or_boundaries() {
             rel_tol: 1e-8,
         },
     ] {
-        let particles = block(bounds, 0.05, 1000.0, |_| rng.vector::<3>(0.5));
+        let particles = block(&grid_around(bounds, 0.1, 3), bounds, 0.05, 1000.0, |_| {
+            rng.vector::<3>(0.5)
+        });
         let implicit = ImplicitParams {
             newton: NewtonParams {
                 rel_tol: 1e-10,
@@ -303,7 +307,7 @@ fn guards_and_retries() {
         Vector::<2>::from_element(0.7),
     );
     let c = Vector::<2>::from_element(0.5);
-    let particles = block(bounds, 0.05, 1000.0, |x| {
+    let particles = block(&grid_around(bounds, 0.1, 3), bounds, 0.05, 1000.0, |x| {
         Vector::<2>::new(-150.0 * (x.x - c.x), 0.0)
     });
     let grid = grid_around(bounds, 0.1, 3);
@@ -448,7 +452,9 @@ fn a_gigapascal_block_falls_under_gravity_without_a_newton_failure() {
         params,
         ImplicitParams::default(),
         vec![neo_hookean(1e9, 0.3, 1000.0)],
-        block(bounds, 0.05, 1000.0, |_| Vector::<2>::zeros()),
+        block(&grid_around(bounds, 0.1, 3), bounds, 0.05, 1000.0, |_| {
+            Vector::<2>::zeros()
+        }),
     )
     .unwrap();
     for _ in 0..10 {

@@ -86,7 +86,7 @@ where
     let mut hi = Vector::<D>::from_element(2.0 * dx);
     hi[0] = len;
     let bounds = (Vector::<D>::zeros(), hi);
-    let particles = block(bounds, dx / 2.0, rho, |x| {
+    let particles = block(&grid_around(bounds, dx, 3), bounds, dx / 2.0, rho, |x| {
         let mut v = Vector::<D>::zeros();
         v[0] = v0 * (PI * x[0] / (2.0 * len)).sin();
         v
@@ -173,7 +173,9 @@ where
     let mut hi = Vector::<D>::from_element(width);
     hi[up] = len;
     let bounds = (Vector::<D>::zeros(), hi);
-    let particles = block(bounds, dx / 2.0, rho, |_| Vector::<D>::zeros());
+    let particles = block(&grid_around(bounds, dx, 3), bounds, dx / 2.0, rho, |_| {
+        Vector::<D>::zeros()
+    });
     let mut gravity = Vector::<D>::zeros();
     gravity[up] = -g;
     let mut clamp_lo = Vector::<D>::from_element(-10.0);
@@ -251,7 +253,7 @@ where
     );
     let c = Vector::<D>::from_element(0.5);
     let mut rng = Lcg(seed);
-    let particles = block(bounds, 0.05, 1000.0, |x| {
+    let particles = block(&grid_around(bounds, 0.1, 3), bounds, 0.05, 1000.0, |x| {
         let d = x - c;
         let mut v = d * 0.5;
         v[0] -= 2.0 * d[1];
@@ -423,7 +425,9 @@ fn loaded_column() -> (Real, Real) {
                 ..ImplicitParams::default()
             },
             vec![uniaxial(e, rho)],
-            block(bounds, h, rho, |_| Vector::<2>::zeros()),
+            block(&grid_around(bounds, dx, 3), bounds, h, rho, |_| {
+                Vector::<2>::zeros()
+            }),
         )
         .unwrap()
     };
@@ -507,7 +511,9 @@ fn particle_forces_give_the_static_stretch_and_match_gravity() {
 fn damped_hanging_column(damping: Damping) -> (Real, Real) {
     let (len, width, dx, e, rho, g) = (1.0, 0.25, 1.0 / 16.0, 1e7, 1000.0, 9.81);
     let bounds = (Vector::<2>::zeros(), Vector::<2>::new(width, len));
-    let particles = block(bounds, dx / 2.0, rho, |_| Vector::<2>::zeros());
+    let particles = block(&grid_around(bounds, dx, 3), bounds, dx / 2.0, rho, |_| {
+        Vector::<2>::zeros()
+    });
     let params = TlmpmParams {
         gravity: Vector::<2>::new(0.0, -g),
         gravity_ramp: Some(GravityRamp { duration: 0.005 }),
@@ -530,9 +536,7 @@ fn damped_hanging_column(damping: Damping) -> (Real, Real) {
         particles,
     )
     .unwrap();
-    while solver.time() < 2.0 {
-        solver.step().unwrap();
-    }
+    solver.run_until(2.0).unwrap();
     let tip = rho * g * len * len / (2.0 * e);
     let p = solver.particles();
     let worst =
@@ -588,7 +592,13 @@ fn the_implicit_solver_rejects_damping() {
         params,
         ImplicitParams::default(),
         vec![uniaxial(1e7, 1000.0)],
-        block(bounds, 1.0 / 32.0, 1000.0, |_| Vector::<2>::zeros()),
+        block(
+            &grid_around(bounds, 1.0 / 16.0, 3),
+            bounds,
+            1.0 / 32.0,
+            1000.0,
+            |_| Vector::<2>::zeros(),
+        ),
     )
     .expect_err("rejected");
     assert!(

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::add_lattice;
+use common::{lattice, particles_of};
 use mpm_core::boundary::ColliderShape;
 use mpm_core::material::{ElasticModel, Lame, Plasticity, Snow, SolidMaterial};
 use mpm_core::Solver as _;
@@ -26,22 +26,20 @@ fn setup(implicit: bool) -> (GridSpec<2>, TlmpmParams<2>, Vec<Material>, Particl
             hardening: 10.0,
         }),
     });
-    let mut particles = Particles::new(Columns {
-        deformation_gradient: true,
+    let grid = GridSpec::covering(
+        Vector::<2>::new(-0.06, -0.11),
+        Vector::<2>::new(0.76, 0.36),
+        dx,
+    );
+    let plastic = Columns {
         plastic: true,
         ..Columns::default()
-    });
-    add_lattice(
-        &mut particles,
-        (
-            Vector::<2>::new(0.3, radius),
-            Vector::<2>::new(0.4, 0.2 + radius),
-        ),
-        dx / 2.0,
-        (400.0, 0),
-        |_| true,
-        |_| Vector::<2>::zeros(),
+    };
+    let bounds = (
+        Vector::<2>::new(0.3, radius),
+        Vector::<2>::new(0.4, 0.2 + radius),
     );
+    let particles = particles_of(&grid, plastic, &[lattice(bounds, dx / 2.0, (400.0, 0))]);
     let params = TlmpmParams {
         gravity: Vector::<2>::new(0.0, -9.81),
         time_step: TimeStepPolicy::Fixed {
@@ -60,11 +58,6 @@ fn setup(implicit: bool) -> (GridSpec<2>, TlmpmParams<2>, Vec<Material>, Particl
         }),
         ..TlmpmParams::default()
     };
-    let grid = GridSpec::covering(
-        Vector::<2>::new(-0.06, -0.11),
-        Vector::<2>::new(0.76, 0.36),
-        dx,
-    );
     (grid, params, vec![snow], particles)
 }
 

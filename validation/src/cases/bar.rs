@@ -9,13 +9,12 @@
 //! = (2 v₀/π) cos(ωt)`.
 
 use super::{assemble, lattice, neo_hookean, sweep, RunError};
-use crate::report::{nan_max, progress, timed_step, CaseResult, Mode, Run};
+use crate::report::{nan_max, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
-use mpm_core::{Columns, GridSpec, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{run_until_with, GridSpec, Matrix, ParticlesBuilder, Real, TimeStepPolicy, Vector};
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
-use std::time::Duration;
 
 /// Case name.
 pub const NAME: &str = "bar_vibration";
@@ -96,26 +95,21 @@ pub fn build(cfg: &BarConfig, n: usize) -> Result<ExplicitSolver<2>, RunError> {
     let spec = GridSpec::new(origin, dx, [cells_x + 8, cfg.cells_high + 7]);
     // ν = 0: exactly uniaxial.
     let materials = vec![neo_hookean(cfg.youngs, 0.0, cfg.density)];
-    let mut particles = Particles::<2>::new(Columns::for_materials(&materials));
     let h = dx / cfg.per_axis as Real;
-    let vol = h * h;
     let (beta, v0) = (cfg.beta(), cfg.v0());
-    for x in lattice(
+    // v(x, 0) = v₀ sin(βx), C = ∇v.
+    let bar = lattice(
         &Vector::<2>::zeros(),
         &Vector::<2>::new(cfg.length, height),
         h,
-    ) {
+        0,
+    )
+    .velocity_field(move |x| {
         let mut c = Matrix::<2>::zeros();
         c[(0, 0)] = v0 * beta * (beta * x.x).cos();
-        particles.push(ParticleInit {
-            x,
-            v: Vector::<2>::new(v0 * (beta * x.x).sin(), 0.0),
-            mass: cfg.density * vol,
-            volume0: vol,
-            material: 0,
-            affine: c,
-        });
-    }
+        (Vector::<2>::new(v0 * (beta * x.x).sin(), 0.0), c)
+    });
+    let particles = ParticlesBuilder::new(&spec, &materials).with(&bar)?.build();
     let boundaries = Boundaries {
         walls: None,
         colliders: vec![Collider {
@@ -186,15 +180,13 @@ pub fn run(cfg: &BarConfig, n: usize) -> Result<Run, RunError> {
     let mut solver = build(cfg, n)?;
     let t_end = cfg.periods * cfg.period();
     let scale = 2.0 * cfg.v0() / PI;
-    let mut wall = Duration::ZERO;
     let mut samples = vec![(0.0, centre_of_mass_velocity(&solver))];
     let mut max_err: Real = (samples[0].1 - cfg.v_cm(0.0)).abs() / scale;
-    while solver.time() < t_end {
-        timed_step(&mut solver, &mut wall)?;
-        let v = centre_of_mass_velocity(&solver);
-        max_err = nan_max(max_err, (v - cfg.v_cm(solver.time())).abs() / scale);
-        samples.push((solver.time(), v));
-    }
+    let run = run_until_with(&mut solver, t_end, |s, _| {
+        let v = centre_of_mass_velocity(s);
+        max_err = nan_max(max_err, (v - cfg.v_cm(s.time())).abs() / scale);
+        samples.push((s.time(), v));
+    })?;
     let crossings = zero_crossings(&samples);
     let period = period_from_crossings(&crossings).unwrap_or(Real::NAN);
     let mut extra = BTreeMap::new();
@@ -210,7 +202,7 @@ pub fn run(cfg: &BarConfig, n: usize) -> Result<Run, RunError> {
         dt: solver.time() / solver.steps() as Real,
         particles: solver.particles().len(),
         steps: solver.steps(),
-        wall_s: wall.as_secs_f64(),
+        wall_s: run.wall.as_secs_f64(),
         error: max_err,
         extra,
     })

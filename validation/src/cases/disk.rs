@@ -2,14 +2,14 @@
 //! momentum (including the particles' affine spin) to round-off.
 
 use super::{assemble, neo_hookean, sweep, RunError};
-use crate::report::{nan_max, progress, timed_step, CaseResult, Mode, Run};
+use crate::report::{nan_max, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
-use mpm_core::sampling::{sample, Sampling, Shape};
-use mpm_core::{Columns, GridSpec, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{
+    run_until_with, Body, GridSpec, Matrix, ParticlesBuilder, Real, Shape, TimeStepPolicy, Vector,
+};
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
-use std::time::Duration;
 
 /// Case name.
 pub const NAME: &str = "spinning_disk";
@@ -92,30 +92,25 @@ pub fn build(cfg: &DiskConfig, n: usize) -> Result<ExplicitSolver<2>, RunError> 
     let dx = 1.0 / n as Real;
     let spec = GridSpec::<2>::covering(Vector::<2>::zeros(), Vector::<2>::from_element(1.0), dx);
     let materials = vec![neo_hookean(cfg.youngs, cfg.poisson, cfg.density)];
-    let mut particles = Particles::<2>::new(Columns::for_materials(&materials));
     let centre = Vector::<2>::from_element(0.5);
-    let shape = Shape::Sphere {
-        center: centre,
-        radius: cfg.radius,
-    };
-    let lattice = Sampling::Lattice {
-        per_axis: cfg.per_axis,
-        jitter: 0.0,
-        seed: 0,
-    };
-    let (xs, vols) = sample(&shape, &lattice, &spec.origin, dx);
     let w = cfg.omega;
-    let spin = Matrix::<2>::new(0.0, -w, w, 0.0);
-    for (x, v0) in xs.into_iter().zip(vols) {
-        particles.push(ParticleInit {
-            x,
-            v: spin * (x - centre),
-            mass: cfg.density * v0,
-            volume0: v0,
-            material: 0,
-            affine: spin,
-        });
-    }
+    // Rigid rotation about the centre: v = ω × (x − centre), C = ∇v.
+    let disk = Body::new(
+        Shape::Sphere {
+            center: centre,
+            radius: cfg.radius,
+        },
+        0,
+    )
+    .lattice(cfg.per_axis)
+    .affine_velocity(
+        Vector::<2>::zeros(),
+        Matrix::<2>::new(0.0, -w, w, 0.0),
+        centre,
+    );
+    let particles = ParticlesBuilder::new(&spec, &materials)
+        .with(&disk)?
+        .build();
     let params = ExplicitParams {
         time_step: TimeStepPolicy::Adaptive {
             cfl: cfg.cfl,
@@ -140,15 +135,13 @@ pub fn run(cfg: &DiskConfig, n: usize) -> Result<Run, RunError> {
     let t_end = cfg.duration();
     let d0 = solver.diagnostics();
     let (l0, e0) = (d0.angular_momentum, d0.kinetic_energy + d0.elastic_energy);
-    let mut wall = Duration::ZERO;
     let (mut drift, mut e_drift): (Real, Real) = (0.0, 0.0);
-    while solver.time() < t_end {
-        timed_step(&mut solver, &mut wall)?;
-        let d = solver.diagnostics();
+    let run = run_until_with(&mut solver, t_end, |s, _| {
+        let d = s.diagnostics();
         drift = nan_max(drift, (d.angular_momentum - l0).norm() / l0.norm());
         let e = d.kinetic_energy + d.elastic_energy;
         e_drift = nan_max(e_drift, (e - e0).abs() / e0);
-    }
+    })?;
     let d = solver.diagnostics();
     let mut extra = BTreeMap::new();
     extra.insert("energy_drift_max".into(), e_drift);
@@ -163,7 +156,7 @@ pub fn run(cfg: &DiskConfig, n: usize) -> Result<Run, RunError> {
         dt: solver.time() / solver.steps() as Real,
         particles: solver.particles().len(),
         steps: solver.steps(),
-        wall_s: wall.as_secs_f64(),
+        wall_s: run.wall.as_secs_f64(),
         error: drift,
         extra,
     })

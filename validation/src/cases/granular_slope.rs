@@ -32,18 +32,16 @@
 
 use super::{assemble, lattice, RunError};
 use crate::report::{
-    decreases_under_refinement, format_dx, least_squares, progress, timed_step, CaseResult, Mode,
-    Run,
+    decreases_under_refinement, format_dx, least_squares, progress, CaseResult, Mode, Run,
 };
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
 use mpm_core::material::{DruckerPrager, ElasticModel, Lame, Plasticity, SolidMaterial};
 use mpm_core::quasistatic::GravityRamp;
 use mpm_core::{
-    Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector,
+    run_until_with, GridSpec, Material, ParticlesBuilder, Real, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use std::collections::BTreeMap;
-use std::time::Duration;
 
 /// Case name.
 pub const NAME: &str = "granular_slope";
@@ -112,26 +110,18 @@ fn run(theta: Real, n: usize) -> Result<Run, RunError> {
     ];
     let spec = GridSpec::new(Vector::<2>::new(-0.5, -2.0 * dx), dx, cells);
     let materials = vec![sand()];
-    let mut particles = Particles::<2>::new(Columns::for_materials(&materials));
-    let h = 0.5 * dx;
-    let xs = lattice(
+    let layer = lattice(
         &Vector::<2>::zeros(),
         &Vector::<2>::new(LENGTH, THICKNESS),
-        h,
+        0.5 * dx,
+        0,
     );
-    let middle: Vec<usize> = (0..xs.len())
-        .filter(|&p| (WINDOW_X.0..=WINDOW_X.1).contains(&xs[p].x))
+    let particles = ParticlesBuilder::new(&spec, &materials)
+        .with(&layer)?
+        .build();
+    let middle: Vec<usize> = (0..particles.len())
+        .filter(|&p| (WINDOW_X.0..=WINDOW_X.1).contains(&particles.x[p].x))
         .collect();
-    for x in &xs {
-        particles.push(ParticleInit {
-            x: *x,
-            v: Vector::<2>::zeros(),
-            mass: 2200.0 * h * h,
-            volume0: h * h,
-            material: 0,
-            affine: Matrix::<2>::zeros(),
-        });
-    }
     let floor = Collider {
         shape: ColliderShape::Box {
             min: Vector::<2>::new(-10.0, -10.0),
@@ -162,20 +152,18 @@ fn run(theta: Real, n: usize) -> Result<Run, RunError> {
     let mean_vx = |s: &ExplicitSolver<2>| {
         middle.iter().map(|&p| s.particles().v[p].x).sum::<Real>() / middle.len() as Real
     };
-    let mut wall = Duration::ZERO;
     let mut after_ramp = None;
     // (t, v̄) samples over the last WINDOW for a least-squares slope.
     let mut samples: Vec<(Real, Real)> = Vec::new();
-    while solver.time() < DURATION {
-        timed_step(&mut solver, &mut wall)?;
-        let (time, v) = (solver.time(), mean_vx(&solver));
+    let run = run_until_with(&mut solver, DURATION, |s, _| {
+        let (time, v) = (s.time(), mean_vx(s));
         if after_ramp.is_none() && time >= RAMP {
             after_ramp = Some(v);
         }
         if time > DURATION - WINDOW {
             samples.push((time, v));
         }
-    }
+    })?;
     let v_end = mean_vx(&solver);
     let a_measured = least_squares(&samples).map_or(Real::NAN, |(slope, _)| slope);
     let a_exact = acceleration(theta);
@@ -200,7 +188,7 @@ fn run(theta: Real, n: usize) -> Result<Run, RunError> {
         dt: solver.time() / solver.steps() as Real,
         particles: solver.particles().len(),
         steps: solver.steps(),
-        wall_s: wall.as_secs_f64(),
+        wall_s: run.wall.as_secs_f64(),
         error,
         extra,
     })

@@ -8,16 +8,15 @@
 //! `s(y) = [1 + (γ−1) ρ₀ g (H − y)/K]^{γ/(γ−1)}`, `p = (K/γ)(s − 1)`, `J = s^{−1/γ}`.
 
 use super::{assemble, lattice, sweep, RunError};
-use crate::report::{fit_rate, least_squares, progress, timed_step, CaseResult, Mode, Run};
+use crate::report::{fit_rate, least_squares, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, WallTreatment};
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{
-    Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector,
+    run_until_with, GridSpec, Material, ParticlesBuilder, Real, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use std::collections::BTreeMap;
-use std::time::Duration;
 
 /// Case name.
 pub const NAME: &str = "hydrostatic_wc";
@@ -150,33 +149,31 @@ pub fn build_column(
         [cells_x + 5, cells_y + 5],
     );
     let materials = vec![Material::Fluid(cfg.material())];
-    let mut particles = Particles::<2>::new(Columns::for_materials(&materials));
     let h = dx / cfg.per_axis as Real;
-    let xs = lattice(
+    let column = lattice(
         &Vector::<2>::zeros(),
         &Vector::<2>::new(cfg.width, cfg.height),
         h,
+        0,
     );
-    let mut js = Vec::with_capacity(xs.len());
+    let mut particles = ParticlesBuilder::new(&spec, &materials)
+        .with(&column)?
+        .build();
+    // The initial state: the lattice is the current configuration, so each particle's reference
+    // volume is V⁰ = V_lattice/J and its mass ρ₀V⁰, and the grid sees the density ρ₀/J.
+    let mut js = Vec::with_capacity(particles.len());
     let mut rows = vec![Vec::new(); ROWS];
-    for (p, x) in xs.iter().enumerate() {
-        // The lattice is the current configuration: reference volume V⁰ = V_lattice/J and
-        // mass ρ₀V⁰, so the grid sees the density ρ₀/J.
+    for p in 0..particles.len() {
+        let y = particles.x[p].y;
         let j = match start {
-            Start::Hydrostatic => cfg.jacobian(x.y),
+            Start::Hydrostatic => cfg.jacobian(y),
             Start::Unstressed => 1.0,
         };
-        let v0 = h * h / j;
-        particles.push(ParticleInit {
-            x: *x,
-            v: Vector::<2>::zeros(),
-            mass: cfg.density * v0,
-            volume0: v0,
-            material: 0,
-            affine: Matrix::<2>::zeros(),
-        });
+        let v0 = particles.volume0[p] / j;
+        particles.volume0[p] = v0;
+        particles.mass[p] = cfg.density * v0;
         js.push(j);
-        let row = (x.y / h).floor() as usize;
+        let row = (y / h).floor() as usize;
         if row < ROWS {
             rows[row].push(p);
         }
@@ -217,14 +214,12 @@ pub const FIT_MARGIN_CELLS: Real = 4.0;
 pub fn run(cfg: &HydroConfig, n: usize) -> Result<Run, RunError> {
     let (mut solver, rows) = build(cfg, n)?;
     let fluid = cfg.material();
-    let mut wall = Duration::ZERO;
     let np = solver.particles().len();
     let (mut r_sum, mut y_sum, mut w_sum) = (vec![0.0; np], vec![0.0; np], 0.0);
     let mut max_speed: Real = 0.0;
-    while solver.time() < cfg.duration {
-        let info = timed_step(&mut solver, &mut wall)?;
-        if solver.time() > 0.5 * cfg.duration {
-            let ps = solver.particles();
+    let run = run_until_with(&mut solver, cfg.duration, |s, info| {
+        if s.time() > 0.5 * cfg.duration {
+            let ps = s.particles();
             let js = ps.jacobian.as_deref().unwrap_or(&[]);
             for k in 0..np {
                 let y = ps.x[k].y;
@@ -234,7 +229,7 @@ pub fn run(cfg: &HydroConfig, n: usize) -> Result<Run, RunError> {
             w_sum += info.dt;
             max_speed = ps.v.iter().map(|v| v.norm()).fold(max_speed, Real::max);
         }
-    }
+    })?;
     let scale = cfg.pressure_scale();
     let (r_mean, y_mean): (Vec<Real>, Vec<Real>) = (
         r_sum.iter().map(|r| r / w_sum).collect(),
@@ -263,7 +258,7 @@ pub fn run(cfg: &HydroConfig, n: usize) -> Result<Run, RunError> {
         dt: solver.time() / solver.steps() as Real,
         particles: np,
         steps: solver.steps(),
-        wall_s: wall.as_secs_f64(),
+        wall_s: run.wall.as_secs_f64(),
         error: (a / scale).abs(),
         extra,
     })

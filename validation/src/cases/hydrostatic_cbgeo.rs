@@ -17,12 +17,11 @@
 
 use super::hydrostatic::{build_column, HydroConfig, Start};
 use super::{assemble, sweep, RunError};
-use crate::report::{fit_rate, progress, timed_step, CaseResult, Mode, Run};
+use crate::report::{fit_rate, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::WallTreatment;
 use mpm_core::quasistatic::{Damping, GravityRamp};
-use mpm_core::Real;
+use mpm_core::{run_until_with, Real};
 use std::collections::BTreeMap;
-use std::time::Duration;
 
 /// Case name.
 pub const NAME: &str = "hydrostatic_cbgeo";
@@ -135,14 +134,12 @@ pub fn run(cfg: &HydroConfig, n: usize) -> Result<Run, RunError> {
     )?;
     let dx = 1.0 / n as Real;
     let rest = settled(cfg);
-    let mut wall = Duration::ZERO;
     let (mut sum, mut weight, mut lo, mut hi) = ([0.0; 2], 0.0, Real::INFINITY, Real::NEG_INFINITY);
     let mut peak: Real = 0.0;
-    while solver.time() < cfg.duration {
-        let info = timed_step(&mut solver, &mut wall)?;
+    let run = run_until_with(&mut solver, cfg.duration, |solver, info| {
         peak = peak.max(solver.diagnostics().kinetic_energy);
         if solver.time() > cfg.duration - WINDOW {
-            let e = bottom_errors(cfg, &rest, &solver, dx);
+            let e = bottom_errors(cfg, &rest, solver, dx);
             for (s, e) in sum.iter_mut().zip(e) {
                 *s += info.dt * e;
             }
@@ -150,7 +147,7 @@ pub fn run(cfg: &HydroConfig, n: usize) -> Result<Run, RunError> {
             lo = lo.min(e[0]);
             hi = hi.max(e[0]);
         }
-    }
+    })?;
     let [error, exact_error] = sum.map(|s| s / weight);
     let ps = solver.particles();
     let mut extra = BTreeMap::new();
@@ -173,7 +170,7 @@ pub fn run(cfg: &HydroConfig, n: usize) -> Result<Run, RunError> {
         dt: solver.time() / solver.steps() as Real,
         particles: ps.len(),
         steps: solver.steps(),
-        wall_s: wall.as_secs_f64(),
+        wall_s: run.wall.as_secs_f64(),
         error: exact_error.abs(),
         extra,
     })

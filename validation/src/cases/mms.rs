@@ -20,8 +20,7 @@ use mpm_core::boundary::{
 };
 use mpm_core::material::Lame;
 use mpm_core::{
-    Columns, Dim, DimOps, GridSpec, Kernel, Matrix, ParticleInit, Particles, Real, TimeStepPolicy,
-    Vector,
+    Dim, DimOps, GridSpec, Kernel, Matrix, ParticlesBuilder, Real, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{BodyForce, ExplicitParams, ExplicitSolver, Transfer};
 use std::collections::BTreeMap;
@@ -167,23 +166,21 @@ where
     // Nodes at exactly 0 and 1 on every axis; three cells of grid beyond each face.
     let spec = GridSpec::new(Vector::<D>::from_element(-3.0 * dx), dx, [n + 7; D]);
     let materials = vec![neo_hookean(cfg.youngs, cfg.poisson, cfg.density)];
-    let mut particles = Particles::<D>::new(Columns::for_materials(&materials));
     let h = dx / cfg.per_axis as Real;
-    let vol = h.powi(D as i32);
-    let xs = lattice(&Vector::<D>::zeros(), &Vector::<D>::from_element(1.0), h);
-    for x in &xs {
-        // x = X, v = u̇(X, 0), C = ∇v(X, 0) (diagonal), F = I.
-        let v = x.map(|xi| cfg.velocity(xi, 0.0));
-        let grad = x.map(|xi| cfg.amplitude * 2.0 * PI * (2.0 * PI * xi).cos() * cfg.speed() * PI);
-        particles.push(ParticleInit {
-            x: *x,
-            v,
-            mass: cfg.density * vol,
-            volume0: vol,
-            material: 0,
-            affine: Matrix::<D>::from_diagonal(&grad),
+    let model = *cfg;
+    // x = X, v = u̇(X, 0), C = ∇v(X, 0) (diagonal), F = I.
+    let cube = lattice(&Vector::<D>::zeros(), &Vector::<D>::from_element(1.0), h, 0)
+        .velocity_field(move |x| {
+            let v = x.map(|xi| model.velocity(xi, 0.0));
+            let grad =
+                x.map(|xi| model.amplitude * 2.0 * PI * (2.0 * PI * xi).cos() * model.speed() * PI);
+            (v, Matrix::<D>::from_diagonal(&grad))
         });
-    }
+    let particles = ParticlesBuilder::new(&spec, &materials)
+        .kernel(cfg.kernel)
+        .with(&cube)?
+        .build();
+    let xs = particles.x.clone();
     // The planes sit 1e-9 Δx inside the faces so that nodes on the faces are inside the
     // colliders despite round-off in the node positions.
     let eps = 1e-9 * dx;
@@ -222,7 +219,6 @@ where
     };
     let (dt, _) = cfg.time_steps::<D>(dx);
     let reference = xs.clone();
-    let model = *cfg;
     let force = BodyForce(Arc::new(move |p: usize, _x: &Vector<D>, t: Real| {
         model.body_force(&reference[p], t)
     }));

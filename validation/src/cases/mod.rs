@@ -14,7 +14,7 @@ pub mod tlmpm;
 
 use crate::report::{fit_rate, CaseResult, Mode, Run, Status};
 use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
-use mpm_core::sampling::BodyError;
+use mpm_core::sampling::{Body, BodyError, Shape};
 use mpm_core::{Material, Real, SetupError, StepError, Vector};
 use std::fmt;
 
@@ -191,8 +191,9 @@ pub fn find(name: &str) -> Option<&'static dyn Case> {
 pub enum RunError {
     /// The scene was rejected by `ExplicitSolver::new`.
     Setup(SetupError),
-    /// The bodies could not be sampled.
-    Body(BodyError),
+    /// The bodies could not be sampled (boxed: the error is large, and every run returns this
+    /// type).
+    Body(Box<BodyError>),
     /// A step failed: a guard check or a solve.
     Step(StepError),
 }
@@ -223,7 +224,7 @@ impl From<StepError> for RunError {
 
 impl From<BodyError> for RunError {
     fn from(e: BodyError) -> Self {
-        RunError::Body(e)
+        RunError::Body(Box::new(e))
     }
 }
 
@@ -237,21 +238,13 @@ pub fn neo_hookean(e: Real, nu: Real, rho: Real) -> Material {
     })
 }
 
-/// Centres of a regular lattice of spacing `h` (m) filling the box `[lo, hi]` (m): `round((hi −
-/// lo)/h)` points per axis at `lo + (k + ½) h`, first axis fastest.
-pub fn lattice<const D: usize>(lo: &Vector<D>, hi: &Vector<D>, h: Real) -> Vec<Vector<D>> {
-    let counts: [usize; D] = std::array::from_fn(|a| ((hi[a] - lo[a]) / h).round() as usize);
-    let total: usize = counts.iter().product();
-    (0..total)
-        .map(|k| {
-            let mut r = k;
-            Vector::<D>::from_fn(|a, _| {
-                let i = r % counts[a];
-                r /= counts[a];
-                lo[a] + (i as Real + 0.5) * h
-            })
-        })
-        .collect()
+/// The box `[lo, hi]` (m) of material `material` sampled on a regular lattice of spacing `h` (m)
+/// aligned with `lo`: `round((hi − lo)/h)` points per axis at `lo + (k + ½) h`, first axis
+/// fastest. Its particles carry the material's density unless the body says otherwise.
+pub fn lattice<const D: usize>(lo: &Vector<D>, hi: &Vector<D>, h: Real, material: u32) -> Body<D> {
+    Body::new(Shape::Box { min: *lo, max: *hi }, material)
+        .lattice(1)
+        .lattice_cells(*lo, h)
 }
 
 /// Runs `run(n)` for each resolution `n` (cells per unit length), printing progress, and

@@ -3,7 +3,9 @@
 #![allow(dead_code)]
 
 use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
-use mpm_core::{Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, Vector};
+use mpm_core::{
+    Body, Columns, GridSpec, Material, Matrix, Particles, ParticlesBuilder, Real, Shape, Vector,
+};
 
 /// An elastic solid material (Neo-Hookean unless told otherwise).
 pub fn jelly(e: Real, nu: Real, density: Real) -> Material {
@@ -26,37 +28,38 @@ pub fn water(bulk: Real, viscosity: Real) -> Material {
     })
 }
 
-/// Fills the box `[lo, hi]` with `per_axis^D` particles per cell of `spec`, all of material
+/// The box `[lo, hi]` with `per_axis^D` particles per cell of `spec` on a lattice aligned with
+/// `lo` (points `lo + (k + ½) Δx/per_axis`, axis 0 fastest), all of material
 /// `(index, density)`, with velocity and affine field `vel(x)`.
-pub fn fill_box<const D: usize>(
-    particles: &mut Particles<D>,
+pub fn box_body<const D: usize>(
     spec: &GridSpec<D>,
     (lo, hi): (Vector<D>, Vector<D>),
     per_axis: usize,
     (material, rho): (u32, Real),
-    vel: impl Fn(&Vector<D>) -> (Vector<D>, Matrix<D>),
+    vel: impl Fn(&Vector<D>) -> (Vector<D>, Matrix<D>) + Send + Sync + 'static,
+) -> Body<D> {
+    Body::new(Shape::Box { min: lo, max: hi }, material)
+        .lattice(per_axis)
+        .lattice_cells(lo, spec.dx)
+        .density(rho)
+        .velocity_field(vel)
+}
+
+/// Appends the particles of [`box_body`] to `particles` (whose columns they get).
+pub fn fill_box<const D: usize>(
+    particles: &mut Particles<D>,
+    spec: &GridSpec<D>,
+    bounds: (Vector<D>, Vector<D>),
+    per_axis: usize,
+    material: (u32, Real),
+    vel: impl Fn(&Vector<D>) -> (Vector<D>, Matrix<D>) + Send + Sync + 'static,
 ) {
-    let h = spec.dx / per_axis as Real;
-    let counts: [usize; D] = std::array::from_fn(|a| ((hi[a] - lo[a]) / h).round() as usize);
-    let total: usize = counts.iter().product();
-    let vol = h.powi(D as i32);
-    for k in 0..total {
-        let mut r = k;
-        let x = Vector::<D>::from_fn(|a, _| {
-            let i = r % counts[a];
-            r /= counts[a];
-            lo[a] + (i as Real + 0.5) * h
-        });
-        let (v, c) = vel(&x);
-        particles.push(ParticleInit {
-            x,
-            v,
-            mass: rho * vol,
-            volume0: vol,
-            material,
-            affine: c,
-        });
-    }
+    let body = box_body(spec, bounds, per_axis, material, vel);
+    // The density is given, so no material table is needed.
+    *particles = ParticlesBuilder::extending(spec, &[], std::mem::take(particles))
+        .with(&body)
+        .expect("the box lies inside the grid")
+        .build();
 }
 
 /// Empty particle storage with the columns `materials` need.

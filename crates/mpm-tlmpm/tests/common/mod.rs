@@ -3,7 +3,9 @@
 #![allow(dead_code)]
 
 use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
-use mpm_core::{Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, Vector};
+use mpm_core::{
+    Body, Columns, GridSpec, Material, Particles, ParticlesBuilder, Real, Shape, Vector,
+};
 
 /// An elastic solid of density `rho` (kg/m^D).
 pub fn solid(model: ElasticModel, rho: Real) -> Material {
@@ -22,52 +24,54 @@ pub fn neo_hookean(e: Real, nu: Real, rho: Real) -> Material {
     )
 }
 
-/// Fills the box `[lo, hi]` with particles on a lattice of spacing `h` (m), cell-centred, of
-/// density `rho`, material 0, velocity `vel(X)`.
-pub fn block<const D: usize>(
-    bounds: (Vector<D>, Vector<D>),
-    h: Real,
-    rho: Real,
-    vel: impl FnMut(&Vector<D>) -> Vector<D>,
-) -> Particles<D> {
-    let mut particles = Particles::new(Columns {
-        deformation_gradient: true,
-        ..Columns::default()
-    });
-    add_lattice(&mut particles, bounds, h, (rho, 0), |_| true, vel);
-    particles
-}
-
-/// Appends the lattice points of [`block`] in `[lo, hi]` for which `keep(X)` holds, of density
-/// `rho` and material `material`, velocity `vel(X)`.
-pub fn add_lattice<const D: usize>(
-    particles: &mut Particles<D>,
+/// The box `[lo, hi]` of material `material` with density `rho` on the cell-centred lattice of
+/// spacing `h` (m) aligned with `lo`: `round((hi − lo)/h)` points per axis at `lo + (k + ½) h`,
+/// axis 0 fastest; at rest.
+pub fn lattice<const D: usize>(
     (lo, hi): (Vector<D>, Vector<D>),
     h: Real,
     (rho, material): (Real, u32),
-    keep: impl Fn(&Vector<D>) -> bool,
-    mut vel: impl FnMut(&Vector<D>) -> Vector<D>,
-) {
-    let counts: [usize; D] = std::array::from_fn(|a| ((hi[a] - lo[a]) / h).round() as usize);
-    let vol = h.powi(D as i32);
-    for k in 0..counts.iter().product::<usize>() {
-        let mut r = k;
-        let x = Vector::<D>::from_fn(|a, _| {
-            let i = r % counts[a];
-            r /= counts[a];
-            lo[a] + (i as Real + 0.5) * h
-        });
-        if keep(&x) {
-            particles.push(ParticleInit {
-                x,
-                v: vel(&x),
-                mass: rho * vol,
-                volume0: vol,
-                material,
-                affine: Matrix::<D>::zeros(),
-            });
-        }
+) -> Body<D> {
+    Body::new(Shape::Box { min: lo, max: hi }, material)
+        .lattice(1)
+        .lattice_cells(lo, h)
+        .density(rho)
+}
+
+/// The particles of `bodies` on `spec` with the deformation-gradient column TLMPM needs (and
+/// `columns`' others).
+pub fn particles_of<const D: usize>(
+    spec: &GridSpec<D>,
+    columns: Columns,
+    bodies: &[Body<D>],
+) -> Particles<D> {
+    let columns = Columns {
+        deformation_gradient: true,
+        ..columns
+    };
+    // The bodies carry their densities, so no material table is needed.
+    let mut builder = ParticlesBuilder::with_columns(spec, &[], columns);
+    for body in bodies {
+        builder.add(body).expect("the body lies inside the grid");
     }
+    builder.build()
+}
+
+/// The box `[lo, hi]` of [`lattice`] on `spec` with density `rho`, material 0, velocity
+/// `vel(X)`.
+pub fn block<const D: usize>(
+    spec: &GridSpec<D>,
+    bounds: (Vector<D>, Vector<D>),
+    h: Real,
+    rho: Real,
+    mut vel: impl FnMut(&Vector<D>) -> Vector<D>,
+) -> Particles<D> {
+    let mut p = particles_of(spec, Columns::default(), &[lattice(bounds, h, (rho, 0))]);
+    // The initial velocities, in particle order (`vel` may draw random numbers).
+    for (v, x) in p.v.iter_mut().zip(&p.x) {
+        *v = vel(x);
+    }
+    p
 }
 
 /// A grid of spacing `dx` whose nodes include `lo` and cover `[lo, hi]` with `margin` extra

@@ -3,11 +3,13 @@
 //! weight `ρ_s b h g` of the block equals the weight `ρ_f b d g` of the displaced water (2D, per
 //! unit depth).
 
-use super::{fill, mass_mean, tait, two_phases, Body};
+use super::{fill, mass_mean, tait, two_phases, Fill};
 use crate::cases::{assemble, neo_hookean, sweep, RunError};
-use crate::report::{format_dx, nan_max, progress, timed_step, CaseResult, Mode, Run};
+use crate::report::{format_dx, nan_max, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
-use mpm_core::{Columns, GridSpec, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{
+    run_until_with, Columns, GridSpec, Particles, ParticlesBuilder, Real, TimeStepPolicy, Vector,
+};
 use mpm_explicit::{
     Activation, ContactCoupling, CouplingKind, ExplicitParams, ExplicitSolver, Friction, Phases,
 };
@@ -117,10 +119,14 @@ pub fn build(
             true,
         ),
     };
-    let mut particles = Particles::new(Columns {
-        phase: phase_column,
-        ..Columns::for_materials(&materials)
-    });
+    let mut particles = ParticlesBuilder::with_columns(
+        &spec,
+        &materials,
+        Columns {
+            phase: phase_column,
+            ..Columns::for_materials(&materials)
+        },
+    );
     let h = 0.5 * dx;
     let v = Vector::<2>::new;
     let (x0, x1) = (
@@ -131,27 +137,28 @@ pub fn build(
         &mut particles,
         (v(x0, cfg.depth), v(x1, cfg.depth + cfg.block_height)),
         h,
-        Body {
+        Fill {
             material: 0,
             density: cfg.block_density,
             phase: 0,
             velocity: Vector::<2>::zeros(),
         },
-    );
+    )?;
     let bottom_row: Vec<usize> = block
-        .filter(|&p| particles.x[p].y < cfg.depth + h)
+        .filter(|&p| particles.particles().x[p].y < cfg.depth + h)
         .collect();
     fill(
         &mut particles,
         (v(0.0, 0.0), v(cfg.width, cfg.depth)),
         h,
-        Body {
+        Fill {
             material: 1,
             density: cfg.water_density,
             phase: 1,
             velocity: Vector::<2>::zeros(),
         },
-    );
+    )?;
+    let particles = particles.build();
     let params = ExplicitParams {
         gravity: v(0.0, -cfg.gravity),
         time_step: TimeStepPolicy::Adaptive {
@@ -235,11 +242,9 @@ pub struct Float {
 pub fn float(cfg: &FloatConfig, n: usize, variant: Variant) -> Result<Float, RunError> {
     let (mut s, bottom_row) = build(cfg, n, variant)?;
     let dx = 1.0 / n as Real;
-    let mut wall = Duration::ZERO;
     let (mut sum, mut weight) = (0.0, 0.0);
     let (mut lo, mut hi) = (Real::INFINITY, Real::NEG_INFINITY);
-    while s.time() < cfg.duration {
-        let info = timed_step(&mut s, &mut wall)?;
+    let run = run_until_with(&mut s, cfg.duration, |s, info| {
         if s.time() >= 0.75 * cfg.duration {
             let (surface, bottom) = surface_and_bottom(cfg, s.particles(), &bottom_row, dx);
             let d = surface - bottom;
@@ -248,7 +253,7 @@ pub fn float(cfg: &FloatConfig, n: usize, variant: Variant) -> Result<Float, Run
             lo = lo.min(d);
             hi = nan_max(hi, d);
         }
-    }
+    })?;
     let ps = s.particles();
     let n_block = (0..ps.len()).filter(|&p| ps.material[p] == 0).count();
     let speed = mass_mean(ps, 0..n_block, |p| ps.v[p].norm());
@@ -256,7 +261,7 @@ pub fn float(cfg: &FloatConfig, n: usize, variant: Variant) -> Result<Float, Run
         draft: sum / weight,
         swing: hi - lo,
         block_speed: speed,
-        wall,
+        wall: run.wall,
         steps: s.steps(),
         particles: ps.len(),
         time: s.time(),

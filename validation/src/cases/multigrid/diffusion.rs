@@ -13,13 +13,10 @@
 use super::tait;
 use crate::cases::{assemble, lattice, sweep, RunError};
 use crate::report::{
-    decreases_under_refinement, fit_rate, format_dx, nan_max, progress, timed_step, CaseResult,
-    Mode, Run,
+    decreases_under_refinement, fit_rate, format_dx, nan_max, progress, CaseResult, Mode, Run,
 };
 use mpm_core::boundary::Boundaries;
-use mpm_core::{
-    Columns, GridSpec, Matrix, ParticleExtra, ParticleInit, Particles, Real, TimeStepPolicy, Vector,
-};
+use mpm_core::{run_until_with, Columns, GridSpec, ParticlesBuilder, Real, TimeStepPolicy, Vector};
 use mpm_explicit::{DiffusionScheme, ExplicitParams, ExplicitSolver, Mixing};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -101,27 +98,31 @@ pub fn build(
         [cells_x + 7, cfg.height_cells + 7],
     );
     let materials = vec![tait(1000.0, cfg.bulk, 0.0), tait(1000.0, cfg.bulk, 0.0)];
-    let mut particles = Particles::new(Columns {
+    let columns = Columns {
         concentration: true,
         ..Columns::for_materials(&materials)
-    });
+    };
     let h = 0.5 * dx;
     let top = cfg.height_cells as Real * dx;
-    for x in lattice(&Vector::<2>::zeros(), &Vector::<2>::new(cfg.length, top), h) {
-        particles.push_with(
-            ParticleInit {
-                x,
-                v: Vector::<2>::zeros(),
-                mass: 1000.0 * h * h,
-                volume0: h * h,
-                material: u32::from(x.x >= 0.5 * cfg.length),
-                affine: Matrix::<2>::zeros(),
-            },
-            ParticleExtra {
-                concentration: cfg.exact(x.x, 0.0),
-                ..ParticleExtra::default()
-            },
-        );
+    let strip = lattice(
+        &Vector::<2>::zeros(),
+        &Vector::<2>::new(cfg.length, top),
+        h,
+        0,
+    );
+    let mut particles = ParticlesBuilder::with_columns(&spec, &materials, columns)
+        .with(&strip)?
+        .build();
+    // The initial state: material 1 (an identical fluid) where x ≥ L/2, and the concentration
+    // of the exact solution at t = 0.
+    let alpha = particles
+        .concentration
+        .as_mut()
+        .expect("a concentration column");
+    for p in 0..particles.x.len() {
+        let x = particles.x[p].x;
+        particles.material[p] = u32::from(x >= 0.5 * cfg.length);
+        alpha[p] = cfg.exact(x, 0.0);
     }
     let params = ExplicitParams {
         time_step: TimeStepPolicy::Adaptive {
@@ -181,18 +182,15 @@ pub fn diffuse(
     };
     let q0 = amount(&s);
     let (mut drift, mut max_speed): (Real, Real) = (0.0, 0.0);
-    let mut wall = Duration::ZERO;
-    let duration = cfg.duration();
-    while s.time() < duration {
-        timed_step(&mut s, &mut wall)?;
-        drift = nan_max(drift, ((amount(&s) - q0) / q0).abs());
+    let run = run_until_with(&mut s, cfg.duration(), |s, _| {
+        drift = nan_max(drift, ((amount(s) - q0) / q0).abs());
         max_speed = s
             .particles()
             .v
             .iter()
             .map(|v| v.norm())
             .fold(max_speed, nan_max);
-    }
+    })?;
     let ps = s.particles();
     let norm = |inside: &dyn Fn(Real) -> bool| {
         let (mut sq, mut vol) = (0.0, 0.0);
@@ -209,7 +207,7 @@ pub fn diffuse(
         interior_error: norm(&|x| (lo..=hi).contains(&x)),
         drift,
         max_speed,
-        wall,
+        wall: run.wall,
         steps: s.steps(),
         particles: ps.len(),
         time: s.time(),

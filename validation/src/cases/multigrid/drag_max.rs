@@ -4,11 +4,11 @@
 //! the single-grid run with the same particles up to round-off (the sums are only grouped
 //! differently).
 
-use super::{fill, tait, two_phases, Body};
+use super::{fill, tait, two_phases, Fill};
 use crate::cases::{assemble, neo_hookean, sweep, RunError};
 use crate::report::{nan_max, progress, timed_step, CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
-use mpm_core::{Columns, GridSpec, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{Columns, GridSpec, ParticlesBuilder, Real, TimeStepPolicy, Vector};
 use mpm_explicit::{CouplingKind, Drag, ExplicitParams, ExplicitSolver, Phases};
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -79,34 +79,39 @@ pub fn build(
         neo_hookean(cfg.youngs, 0.3, cfg.block_density),
         tait(1000.0, cfg.bulk, 0.0),
     ];
-    let mut particles = Particles::new(Columns {
-        phase: phase_column,
-        ..Columns::for_materials(&materials)
-    });
+    let mut particles = ParticlesBuilder::with_columns(
+        &spec,
+        &materials,
+        Columns {
+            phase: phase_column,
+            ..Columns::for_materials(&materials)
+        },
+    );
     let h = 0.5 * dx;
     let v = Vector::<2>::new;
     fill(
         &mut particles,
         (v(0.35, 0.35), v(0.6, 0.6)),
         h,
-        Body {
+        Fill {
             material: 0,
             density: cfg.block_density,
             phase: 0,
             velocity: cfg.block_velocity,
         },
-    );
+    )?;
     fill(
         &mut particles,
         (v(0.1, 0.1), v(0.9, 0.35)),
         h,
-        Body {
+        Fill {
             material: 1,
             density: 1000.0,
             phase: 1,
             velocity: Vector::<2>::zeros(),
         },
-    );
+    )?;
+    let particles = particles.build();
     let params = ExplicitParams {
         gravity: v(0.0, -cfg.gravity),
         time_step: TimeStepPolicy::Fixed { dt: cfg.dt(dx) },

@@ -12,11 +12,13 @@
 //! - the separation `s = (ȳ_light − ȳ_heavy)/(H/2)` of the centres of mass, H the fluid depth:
 //!   1 for equal-area layers fully separated, 0 side by side, −1 heavy on top.
 
-use super::{fill, mass_mean, tait, two_phases, Body};
+use super::{fill, mass_mean, tait, two_phases, Fill};
 use crate::cases::{assemble, sweep, RunError};
-use crate::report::{format_dx, nan_max, progress, timed_step, CaseResult, Mode, Run};
+use crate::report::{format_dx, nan_max, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
-use mpm_core::{Columns, GridSpec, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{
+    run_until_with, Columns, GridSpec, Particles, ParticlesBuilder, Real, TimeStepPolicy, Vector,
+};
 use mpm_explicit::{
     Activation, ContactCoupling, CouplingKind, ExplicitParams, ExplicitSolver, Friction, Phases,
 };
@@ -109,10 +111,14 @@ pub fn build(
             true,
         ),
     };
-    let mut particles = Particles::new(Columns {
-        phase: phase_column,
-        ..Columns::for_materials(&materials)
-    });
+    let mut particles = ParticlesBuilder::with_columns(
+        &spec,
+        &materials,
+        Columns {
+            phase: phase_column,
+            ..Columns::for_materials(&materials)
+        },
+    );
     let h = 0.5 * dx;
     let v = Vector::<2>::new;
     let half = 0.5 * cfg.width;
@@ -120,24 +126,25 @@ pub fn build(
         &mut particles,
         (v(0.0, 0.0), v(half, cfg.depth)),
         h,
-        Body {
+        Fill {
             material: 1,
             density: cfg.heavy,
             phase: 1,
             velocity: Vector::<2>::zeros(),
         },
-    );
+    )?;
     fill(
         &mut particles,
         (v(half, 0.0), v(cfg.width, cfg.depth)),
         h,
-        Body {
+        Fill {
             material: 0,
             density: cfg.light,
             phase: 0,
             velocity: Vector::<2>::zeros(),
         },
-    );
+    )?;
+    let particles = particles.build();
     let boundaries = Boundaries::slip_walls(3);
     let params = ExplicitParams {
         gravity: v(0.0, -cfg.gravity),
@@ -220,11 +227,9 @@ pub fn separate(
 ) -> Result<Separation, RunError> {
     let mut s = build(cfg, n, variant)?;
     let dx = 1.0 / n as Real;
-    let mut wall = Duration::ZERO;
     let mut snapshots = Vec::new();
     let (mut sum, mut weight) = ([0.0; 3], 0.0);
-    while s.time() < cfg.duration {
-        let info = timed_step(&mut s, &mut wall)?;
+    let run = run_until_with(&mut s, cfg.duration, |s, info| {
         let ps = s.particles();
         if snapshots.len() < SNAPSHOTS.len() && s.time() >= SNAPSHOTS[snapshots.len()] {
             snapshots.push(measure(cfg, ps).0);
@@ -245,13 +250,13 @@ pub fn separate(
             }
             weight += info.dt;
         }
-    }
+    })?;
     Ok(Separation {
         snapshots,
         misplaced: sum[0] / weight,
         separation: sum[1] / weight,
         lift_cells: sum[2] / weight,
-        wall,
+        wall: run.wall,
         steps: s.steps(),
         particles: s.particles().len(),
     })
@@ -394,25 +399,31 @@ mod tests {
         assert!((misplaced - 0.5).abs() < 1e-12, "{misplaced}");
         assert!(separation.abs() < 1e-12, "{separation}");
         // Heavy layer below the light one: nothing misplaced, s = 1.
-        let mut layers = Particles::new(Columns {
+        let v = Vector::<2>::new;
+        let dx = 1.0 / 64.0;
+        let spec = GridSpec::covering(v(-dx, -dx), v(cfg.width + dx, cfg.depth + dx), dx);
+        let columns = Columns {
             jacobian: true,
             ..Columns::default()
-        });
-        let v = Vector::<2>::new;
+        };
+        // The densities are given: no material table needed.
+        let mut layers = ParticlesBuilder::with_columns(&spec, &[], columns);
         let half = 0.5 * cfg.depth;
         for (material, lo, hi) in [(1, 0.0, half), (0, half, cfg.depth)] {
             fill(
                 &mut layers,
                 (v(0.0, lo), v(cfg.width, hi)),
-                1.0 / 64.0,
-                Body {
+                dx,
+                Fill {
                     material,
                     density: 1000.0,
                     phase: 0,
                     velocity: Vector::<2>::zeros(),
                 },
-            );
+            )
+            .expect("the layers lie inside the grid");
         }
+        let layers = layers.build();
         let (misplaced, separation) = measure(&cfg, &layers);
         assert_eq!(misplaced, 0.0);
         assert!((separation - 1.0).abs() < 1e-12, "{separation}");

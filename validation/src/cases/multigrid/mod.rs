@@ -16,10 +16,11 @@ pub mod immiscible;
 pub mod momentum;
 pub mod wall_slide;
 
-use super::lattice;
+use super::{lattice, RunError};
 use mpm_core::material::{FluidMaterial, Tait};
-use mpm_core::{Material, Matrix, ParticleExtra, ParticleInit, Particles, Real, Vector};
+use mpm_core::{Material, ParticleExtra, Particles, ParticlesBuilder, Real, Vector};
 use mpm_explicit::{BuoyancyPenalty, Coupling, CouplingKind, Phases, PressureBuoyancy};
+use std::ops::Range;
 
 /// A weakly compressible Tait fluid (γ = 7) with rest density `density` (kg/m²), bulk modulus
 /// `bulk` (Pa) and dynamic viscosity `viscosity` (Pa·s).
@@ -36,7 +37,7 @@ pub fn tait(density: Real, bulk: Real, viscosity: Real) -> Material {
 
 /// What the particles of one filled box are.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Body {
+pub struct Fill {
     /// Material index.
     pub material: u32,
     /// Rest density (kg/m²): particle mass is `density · h²`.
@@ -47,32 +48,22 @@ pub struct Body {
     pub velocity: Vector<2>,
 }
 
-/// Fills the box `[lo, hi]` (m) with particles of `body` on a lattice of spacing `h` (m) (see
-/// [`lattice`]); returns the index range of the new particles.
+/// Adds the box `[lo, hi]` (m) filled with particles of `fill` on a lattice of spacing `h` (m)
+/// (see [`lattice`]) to `particles`; returns the index range of the new particles.
 pub fn fill(
-    particles: &mut Particles<2>,
+    particles: &mut ParticlesBuilder<'_, 2>,
     (lo, hi): (Vector<2>, Vector<2>),
     h: Real,
-    body: Body,
-) -> std::ops::Range<usize> {
-    let start = particles.len();
-    for x in lattice(&lo, &hi, h) {
-        particles.push_with(
-            ParticleInit {
-                x,
-                v: body.velocity,
-                mass: body.density * h * h,
-                volume0: h * h,
-                material: body.material,
-                affine: Matrix::<2>::zeros(),
-            },
-            ParticleExtra {
-                phase: body.phase,
-                ..ParticleExtra::default()
-            },
-        );
-    }
-    start..particles.len()
+    fill: Fill,
+) -> Result<Range<usize>, RunError> {
+    let body = lattice(&lo, &hi, h, fill.material)
+        .density(fill.density)
+        .velocity(fill.velocity)
+        .extra(ParticleExtra {
+            phase: fill.phase,
+            ..ParticleExtra::default()
+        });
+    Ok(particles.add(&body)?)
 }
 
 /// Two phases (0 and 1) joined by one coupling of `kind`, with a buoyancy penalty of strength
@@ -90,11 +81,7 @@ pub fn two_phases(kind: CouplingKind, buoyancy: Option<Real>) -> Phases {
 }
 
 /// Mass-weighted mean of `f` over the particles `range` of `particles`.
-pub fn mass_mean(
-    particles: &Particles<2>,
-    range: std::ops::Range<usize>,
-    f: impl Fn(usize) -> Real,
-) -> Real {
+pub fn mass_mean(particles: &Particles<2>, range: Range<usize>, f: impl Fn(usize) -> Real) -> Real {
     let (mut sum, mut mass) = (0.0, 0.0);
     for p in range {
         sum += particles.mass[p] * f(p);

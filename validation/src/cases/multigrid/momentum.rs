@@ -7,11 +7,11 @@
 //! with gravity, and the exact gravity impulse `M g t` (APIC transfers conserve momentum, and with
 //! no walls nothing else acts on the particles) is subtracted before the drift is measured.
 
-use super::{fill, tait, two_phases, Body};
+use super::{fill, tait, two_phases, Fill};
 use crate::cases::{assemble, neo_hookean, sweep, RunError};
-use crate::report::{nan_max, progress, timed_step, CaseResult, Mode, Run};
+use crate::report::{nan_max, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
-use mpm_core::{Columns, GridSpec, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{run_until_with, Columns, GridSpec, ParticlesBuilder, Real, TimeStepPolicy, Vector};
 use mpm_explicit::{
     Activation, ContactCoupling, CouplingKind, Drag, ExplicitParams, ExplicitSolver, Friction,
 };
@@ -92,34 +92,39 @@ pub fn build(n: usize, variant: &Variant) -> Result<ExplicitSolver<2>, RunError>
     let dx = 1.0 / n as Real;
     let spec = GridSpec::new(Vector::<2>::zeros(), dx, [n + 1, n + 1]);
     let materials = vec![neo_hookean(1e5, 0.3, 400.0), tait(1000.0, 1e5, 0.0)];
-    let mut particles = Particles::new(Columns {
-        phase: true,
-        ..Columns::for_materials(&materials)
-    });
+    let mut particles = ParticlesBuilder::with_columns(
+        &spec,
+        &materials,
+        Columns {
+            phase: true,
+            ..Columns::for_materials(&materials)
+        },
+    );
     let h = 0.5 * dx;
     let v = Vector::<2>::new;
     fill(
         &mut particles,
         (v(0.4, 0.55), v(0.6, 0.75)),
         h,
-        Body {
+        Fill {
             material: 0,
             density: 400.0,
             phase: 0,
             velocity: v(0.0, -1.0),
         },
-    );
+    )?;
     fill(
         &mut particles,
         (v(0.3, 0.25), v(0.7, 0.5)),
         h,
-        Body {
+        Fill {
             material: 1,
             density: 1000.0,
             phase: 1,
             velocity: Vector::<2>::zeros(),
         },
-    );
+    )?;
+    let particles = particles.build();
     let g = if variant.buoyancy.is_some() {
         GRAVITY
     } else {
@@ -175,23 +180,21 @@ pub fn drift(n: usize, variant: &Variant) -> Result<Drift, RunError> {
     };
     let d0 = s.diagnostics();
     let (m_water, q_water) = water(&s);
-    let mut wall = Duration::ZERO;
     let (mut worst, mut exchanged, mut scale): (Real, Real, Real) = (0.0, 0.0, 0.0);
-    while s.time() < DURATION {
-        timed_step(&mut s, &mut wall)?;
+    let run = run_until_with(&mut s, DURATION, |s, _| {
         let d = s.diagnostics();
         let g_t = s.params().gravity * s.time();
         worst = nan_max(worst, (d.momentum - d0.momentum - g_t * d0.mass).norm());
-        let q = water(&s).1;
+        let q = water(s).1;
         exchanged = nan_max(exchanged, (q - q_water - g_t * m_water).norm());
         let ps = s.particles();
         let magnitude: Real = (0..ps.len()).map(|p| ps.mass[p] * ps.v[p].norm()).sum();
         scale = nan_max(scale, magnitude);
-    }
+    })?;
     Ok(Drift {
         drift: worst / scale,
         exchanged: exchanged / scale,
-        wall,
+        wall: run.wall,
         steps: s.steps(),
         particles: s.particles().len(),
         time: s.time(),

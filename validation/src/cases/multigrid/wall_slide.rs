@@ -12,13 +12,11 @@
 //!   rests on the wall (an inclined plane),
 //! - much less on a single grid, where the film sticks to the wall.
 
-use super::{fill, mass_mean, tait, two_phases, Body};
+use super::{fill, mass_mean, tait, two_phases, Fill};
 use crate::cases::{assemble, neo_hookean, sweep, RunError};
-use crate::report::{
-    decreases_under_refinement, format_dx, progress, timed_step, CaseResult, Mode, Run,
-};
+use crate::report::{decreases_under_refinement, format_dx, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
-use mpm_core::{Columns, GridSpec, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{Columns, GridSpec, ParticlesBuilder, Real, Solver, TimeStepPolicy, Vector};
 use mpm_explicit::{
     Activation, ContactCoupling, CouplingKind, ExplicitParams, ExplicitSolver, Friction, Phases,
 };
@@ -115,23 +113,27 @@ pub fn build(cfg: &SlideConfig, n: usize, variant: Variant) -> Result<ExplicitSo
             true,
         ),
     };
-    let mut particles = Particles::new(Columns {
-        phase: phase_column,
-        ..Columns::for_materials(&materials)
-    });
+    let mut particles = ParticlesBuilder::with_columns(
+        &spec,
+        &materials,
+        Columns {
+            phase: phase_column,
+            ..Columns::for_materials(&materials)
+        },
+    );
     let h = 0.5 * dx;
     let v = Vector::<2>::new;
     fill(
         &mut particles,
         (v(0.2, 0.1), v(WALL_FACE, 0.9)),
         h,
-        Body {
+        Fill {
             material: 0,
             density: 1000.0,
             phase: 0,
             velocity: Vector::<2>::zeros(),
         },
-    );
+    )?;
     fill(
         &mut particles,
         (
@@ -139,13 +141,14 @@ pub fn build(cfg: &SlideConfig, n: usize, variant: Variant) -> Result<ExplicitSo
             v(WALL_FACE + cfg.film, cfg.span.1),
         ),
         h,
-        Body {
+        Fill {
             material: 1,
             density: 1000.0,
             phase: 1,
             velocity: Vector::<2>::zeros(),
         },
-    );
+    )?;
+    let particles = particles.build();
     let boundaries = Boundaries {
         walls: None,
         colliders: vec![Collider {
@@ -188,10 +191,7 @@ pub fn slide(
     let film = (0..s.particles().len())
         .position(|p| s.particles().material[p] == 1)
         .unwrap_or(0)..s.particles().len();
-    let mut wall = Duration::ZERO;
-    while s.time() < cfg.duration {
-        timed_step(&mut s, &mut wall)?;
-    }
+    let wall = s.run_until(cfg.duration)?.wall;
     let ps = s.particles();
     let v_t = -mass_mean(ps, film, |p| ps.v[p].y);
     let (_, g_t) = cfg.components();

@@ -49,8 +49,8 @@
 //! over δ, the RMS fit residual over δ (the higher modes), the mean Newton iterations per step,
 //! and the wall time spent inside `step` only.
 
-use super::{add_lattice, result, sweep_labelled, tl_particles, Tlmpm};
-use crate::cases::neo_hookean;
+use super::{result, sweep_labelled, tl_particles, Tlmpm};
+use crate::cases::{lattice, neo_hookean};
 use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::{GridSpec, Matrix, Real, TimeStepPolicy, Vector};
 use mpm_tlmpm::{FixedRegion, ImplicitParams, TlmpmParams, Transfer};
@@ -292,24 +292,24 @@ pub fn history(
     periods: Real,
 ) -> Result<History, String> {
     let dx = THICKNESS / cells as Real;
-    let mut particles = tl_particles::<2>();
-    add_lattice(
-        &mut particles,
-        (Vector::<2>::zeros(), Vector::<2>::new(LENGTH, THICKNESS)),
-        (0.5 * dx, DENSITY),
-        |_| true,
-        |_| (Vector::<2>::zeros(), Matrix::<2>::zeros()),
-    );
-    let np = particles.len();
-    let tip: Vec<usize> = (0..np)
-        .filter(|&p| particles.x[p].x > LENGTH - 0.5 * dx)
-        .collect();
-    let a = tip.iter().map(|&p| particles.x[p].x).sum::<Real>() / tip.len() as Real;
     let spec = GridSpec::covering(
         Vector::<2>::new(-2.5 * dx, -2.0 * dx),
         Vector::<2>::new(LENGTH + 2.0 * dx, THICKNESS + 2.0 * dx),
         dx,
     );
+    let materials = vec![neo_hookean(YOUNGS, 0.0, DENSITY)];
+    let beam = lattice(
+        &Vector::<2>::zeros(),
+        &Vector::<2>::new(LENGTH, THICKNESS),
+        0.5 * dx,
+        0,
+    );
+    let particles = tl_particles(&spec, &materials, &[beam])?;
+    let np = particles.len();
+    let tip: Vec<usize> = (0..np)
+        .filter(|&p| particles.x[p].x > LENGTH - 0.5 * dx)
+        .collect();
+    let a = tip.iter().map(|&p| particles.x[p].x).sum::<Real>() / tip.len() as Real;
     let far = 10.0;
     let params = |dt: Real| TlmpmParams {
         transfer,
@@ -320,7 +320,6 @@ pub fn history(
         )],
         ..TlmpmParams::default()
     };
-    let materials = vec![neo_hookean(YOUNGS, 0.0, DENSITY)];
     let probe = Tlmpm::new(
         spec,
         params(1.0),

@@ -10,17 +10,17 @@
 //! particles, two particles being connected when their distance is below 1.5× the initial
 //! particle spacing `h = Δx/2`, sampled every 10 steps and at the end; TLMPM must stay at 1.
 
-use super::{add_lattice, components, result, sweep_labelled, tl_particles, Tlmpm};
-use crate::cases::neo_hookean;
+use super::{components, result, sweep_labelled, tl_columns, Tlmpm};
+use crate::cases::{lattice, neo_hookean};
 use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind, DomainWalls};
 use mpm_core::{
-    Columns, Dim, DimOps, GridSpec, Matrix, Particles, Real, Solver, TimeStepPolicy, Vector,
+    reached, run_until_with, Columns, Dim, DimOps, GridSpec, Material, Matrix, Particles,
+    ParticlesBuilder, Real, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use mpm_tlmpm::{FixedRegion, ImplicitParams, TlmpmParams};
 use std::collections::BTreeMap;
-use std::time::{Duration, Instant};
 
 /// Case name.
 pub const NAME: &str = "hanging_block_extreme";
@@ -80,17 +80,15 @@ fn adaptive() -> TimeStepPolicy {
     }
 }
 
-/// The block's particles at spacing `dx/2` (m) with `columns`.
-fn block(dx: Real, columns: Columns) -> Particles<2> {
-    let mut p = Particles::<2>::new(columns);
-    add_lattice(
-        &mut p,
-        (Vector::<2>::from(LO), Vector::<2>::from(HI)),
-        (0.5 * dx, DENSITY),
-        |_| true,
-        |_| (Vector::<2>::zeros(), Matrix::<2>::zeros()),
-    );
-    p
+/// The block's particles at spacing `dx/2` (m) on [`grid`]`(dx)` with `columns`, at rest.
+fn block(dx: Real, materials: &[Material], columns: Columns) -> Result<Particles<2>, String> {
+    let block = lattice(&Vector::from(LO), &Vector::from(HI), 0.5 * dx, 0);
+    Ok(
+        ParticlesBuilder::with_columns(&grid(dx), materials, columns)
+            .with(&block)
+            .map_err(|e| e.to_string())?
+            .build(),
+    )
 }
 
 /// Grid of spacing `dx` (m) from (0, −0.4) to (1, 1.2) m: room for the stretched block, and
@@ -120,11 +118,10 @@ pub fn run(dx: Real, method: Method) -> Result<Run, String> {
     let materials = vec![neo_hookean(YOUNGS, 0.3, DENSITY)];
     let gravity = Vector::<2>::new(0.0, -GRAVITY);
     let top = HI[1];
-    let mut wall = Duration::ZERO;
     let (mut count_max, mut count_end, mut stretch) = (0usize, 0usize, 0.0 as Real);
-    let (n, steps, time);
+    let (n, steps, time, wall);
     if method == Method::MlsMpm {
-        let particles = block(dx, Columns::for_materials(&materials));
+        let particles = block(dx, &materials, Columns::for_materials(&materials))?;
         n = particles.len();
         let boundaries = Boundaries {
             walls: Some(DomainWalls {
@@ -154,19 +151,18 @@ pub fn run(dx: Real, method: Method) -> Result<Run, String> {
         };
         let mut s = ExplicitSolver::new(grid(dx), params, materials, boundaries, particles)
             .map_err(|e| format!("set-up error: {e}"))?;
-        while s.time() < T_END {
-            let t = Instant::now();
-            s.step().map_err(|e| e.to_string())?;
-            wall += t.elapsed();
-            if s.steps() % 10 == 0 || s.time() >= T_END {
+        wall = run_until_with(&mut s, T_END, |s, _| {
+            if s.steps() % 10 == 0 || reached(s.time(), T_END) {
                 count_end = components(&s.particles().x, link);
                 count_max = count_max.max(count_end);
                 stretch = stretch.max(max_stretch(s.particles().def_grad.as_ref()));
             }
-        }
+        })
+        .map_err(|e| e.to_string())?
+        .wall;
         (steps, time) = (s.steps(), s.time());
     } else {
-        let particles = block(dx, tl_particles::<2>().columns());
+        let particles = block(dx, &materials, tl_columns())?;
         n = particles.len();
         let implicit = method == Method::ImplicitTlmpm;
         let params = TlmpmParams {
@@ -189,14 +185,15 @@ pub fn run(dx: Real, method: Method) -> Result<Run, String> {
             materials,
             particles,
         )?;
-        while s.time() < T_END - 1e-12 {
-            s.step(&mut wall).map_err(|e| e.to_string())?;
-            if s.steps() % 10 == 0 || s.time() >= T_END - 1e-12 {
+        wall = run_until_with(&mut *s, T_END, |s, _| {
+            if s.steps() % 10 == 0 || reached(s.time(), T_END) {
                 count_end = components(&s.particles().x, link);
                 count_max = count_max.max(count_end);
                 stretch = stretch.max(max_stretch(s.particles().def_grad.as_ref()));
             }
-        }
+        })
+        .map_err(|e| e.to_string())?
+        .wall;
         (steps, time) = (s.steps(), s.time());
     }
     let mut extra = BTreeMap::new();

@@ -92,13 +92,12 @@
 //! persistent, 0.89 (0.91) APIC; implicit 1.00 (1.00) persistent, 1.11 (1.08) APIC; MLS-MPM 0.79
 //! (0.34).
 
-use super::{add_lattice, result, sweep_labelled, tl_particles, Tlmpm};
+use super::{result, sweep_labelled, tl_columns, Tlmpm};
 use crate::cases::{lattice, neo_hookean};
 use crate::report::{fit_rate, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
 use mpm_core::{
-    Columns, GridSpec, Kernel, Matrix, ParticleInit, Particles, Real, Solver as _, TimeStepPolicy,
-    Vector,
+    Body, GridSpec, Kernel, Matrix, ParticlesBuilder, Real, Solver as _, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{BodyForce, ExplicitParams, ExplicitSolver};
 use mpm_tlmpm::{ClampPlane, FixedRegion, ImplicitParams, NewtonParams, TlmpmParams, Transfer};
@@ -381,6 +380,29 @@ struct Outcome {
     max_l2: Real,
 }
 
+/// The bar `[lo, hi] × [0, 2Δx]` (m) with `Δx = dx` and 2 × 2 particles per cell, in its
+/// initial motion ([`initial_velocity`]).
+fn bar(dx: Real, (lo, hi): (Real, Real)) -> Body<2> {
+    lattice(
+        &Vector::<2>::new(lo, 0.0),
+        &Vector::<2>::new(hi, 2.0 * dx),
+        0.5 * dx,
+        0,
+    )
+    .velocity_field(initial_velocity)
+}
+
+/// The grid of spacing `dx` (m) covering the bar `[lo, hi] × [0, 2Δx]` (m) with three cells to
+/// spare on every side.
+fn bar_grid(dx: Real, (lo, hi): (Real, Real)) -> GridSpec<2> {
+    let m = 3.0 * dx;
+    GridSpec::covering(
+        Vector::<2>::new(lo - m, -m),
+        Vector::<2>::new(hi + m, 2.0 * dx + m),
+        dx,
+    )
+}
+
 /// Runs TLMPM for `cfg` on the bar `[lo, hi]` (m) with `n` cells per metre and `steps` steps of
 /// `dt` (s).
 fn run_tlmpm(
@@ -390,15 +412,6 @@ fn run_tlmpm(
     (dt, steps): (Real, u64),
 ) -> Result<Outcome, String> {
     let dx = 1.0 / n as Real;
-    let height = 2.0 * dx;
-    let mut particles = tl_particles::<2>();
-    add_lattice(
-        &mut particles,
-        (Vector::<2>::new(lo, 0.0), Vector::<2>::new(hi, height)),
-        (0.5 * dx, DENSITY),
-        |_| true,
-        initial_velocity,
-    );
     let far = 10.0 + EXTENSION;
     let axis = |x: bool| FixedRegion {
         min: Vector::<2>::new(-far, -far),
@@ -450,19 +463,14 @@ fn run_tlmpm(
         },
         ..ImplicitParams::default()
     });
-    let m = 3.0 * dx;
-    let spec = GridSpec::covering(
-        Vector::<2>::new(lo - m, -m),
-        Vector::<2>::new(hi + m, height + m),
-        dx,
-    );
-    let mut s = Tlmpm::new(
-        spec,
-        params,
-        ip,
-        vec![neo_hookean(YOUNGS, 0.0, DENSITY)],
-        particles,
-    )?;
+    let spec = bar_grid(dx, (lo, hi));
+    let materials = vec![neo_hookean(YOUNGS, 0.0, DENSITY)];
+    let particles = ParticlesBuilder::with_columns(&spec, &materials, tl_columns())
+        .kernel(cfg.kernel)
+        .with(&bar(dx, (lo, hi)))
+        .map_err(|e| e.to_string())?
+        .build();
+    let mut s = Tlmpm::new(spec, params, ip, materials, particles)?;
     let x0: Vec<Vector<2>> = s.reference().positions().to_vec();
     let mass = s.particles().mass.clone();
     // Force time in steps after tⁿ: symplectic Euler at tⁿ, backward Euler at tⁿ⁺¹.
@@ -501,21 +509,14 @@ fn run_mls(
 ) -> Result<Outcome, String> {
     let dx = 1.0 / n as Real;
     let height = 2.0 * dx;
-    let h = 0.5 * dx;
+    let spec = bar_grid(dx, (lo, hi));
     let materials = vec![neo_hookean(YOUNGS, 0.0, DENSITY)];
-    let mut particles = Particles::<2>::new(Columns::for_materials(&materials));
-    let x0 = lattice(&Vector::<2>::new(lo, 0.0), &Vector::<2>::new(hi, height), h);
-    for x in &x0 {
-        let (v, affine) = initial_velocity(x);
-        particles.push(ParticleInit {
-            x: *x,
-            v,
-            mass: DENSITY * h * h,
-            volume0: h * h,
-            material: 0,
-            affine,
-        });
-    }
+    let particles = ParticlesBuilder::new(&spec, &materials)
+        .kernel(cfg.kernel)
+        .with(&bar(dx, (lo, hi)))
+        .map_err(|e| e.to_string())?
+        .build();
+    let x0 = particles.x.clone();
     // The planes sit 10⁻⁹ Δx inside the faces so that the nodes on the faces are held.
     let eps = 1e-9 * dx;
     let (ex, ey) = (Vector::<2>::new(1.0, 0.0), Vector::<2>::new(0.0, 1.0));
@@ -545,12 +546,6 @@ fn run_mls(
         body_force: Some(force),
         ..ExplicitParams::default()
     };
-    let m = 3.0 * dx;
-    let spec = GridSpec::covering(
-        Vector::<2>::new(lo - m, -m),
-        Vector::<2>::new(hi + m, height + m),
-        dx,
-    );
     let boundaries = Boundaries {
         walls: None,
         colliders,

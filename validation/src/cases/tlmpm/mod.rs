@@ -21,7 +21,7 @@ pub mod two_disks_energy;
 
 use crate::report::{progress, CaseResult, Run, Status};
 use mpm_core::{
-    Columns, Dim, DimOps, GridSpec, Material, Matrix, ParticleInit, Particles, Real, StepError,
+    Body, Columns, Dim, DimOps, GridSpec, Material, Particles, ParticlesBuilder, Real, StepError,
     StepInfo, Vector,
 };
 use mpm_tlmpm::{ImplicitParams, TlmpmParams, TotalLagrangian};
@@ -97,38 +97,26 @@ pub fn event_count(info: &StepInfo, name: &str) -> u64 {
         .sum()
 }
 
-/// Empty particle set with the deformation-gradient column (needed by TLMPM).
-pub fn tl_particles<const D: usize>() -> Particles<D> {
-    Particles::new(Columns {
+/// The optional columns TLMPM needs: the deformation gradient.
+pub fn tl_columns() -> Columns {
+    Columns {
         deformation_gradient: true,
         ..Columns::default()
-    })
+    }
 }
 
-/// Appends the cell-centred lattice points of spacing `h` (m) in the box `[lo, hi]` (m) for
-/// which `keep(X)` holds: density `rho` (kg/m^D), material 0, velocity `vel(X)` (m/s) and
-/// affine column `grad(X)` (1/s).
-pub fn add_lattice<const D: usize>(
-    particles: &mut Particles<D>,
-    (lo, hi): (Vector<D>, Vector<D>),
-    (h, rho): (Real, Real),
-    keep: impl Fn(&Vector<D>) -> bool,
-    vel: impl Fn(&Vector<D>) -> (Vector<D>, Matrix<D>),
-) {
-    let vol = h.powi(D as i32);
-    for x in super::lattice(&lo, &hi, h) {
-        if keep(&x) {
-            let (v, c) = vel(&x);
-            particles.push(ParticleInit {
-                x,
-                v,
-                mass: rho * vol,
-                volume0: vol,
-                material: 0,
-                affine: c,
-            });
-        }
+/// The particles of `bodies` (see [`crate::cases::lattice`]) on `spec` with `materials`, with
+/// the deformation-gradient column TLMPM needs.
+pub fn tl_particles<const D: usize>(
+    spec: &GridSpec<D>,
+    materials: &[Material],
+    bodies: &[Body<D>],
+) -> Result<Particles<D>, String> {
+    let mut builder = ParticlesBuilder::with_columns(spec, materials, tl_columns());
+    for body in bodies {
+        builder.add(body).map_err(|e| e.to_string())?;
     }
+    Ok(builder.build())
 }
 
 /// A grid of spacing `dx` (m) whose nodes include `lo` and cover `[lo, hi]` (m) with `margin`

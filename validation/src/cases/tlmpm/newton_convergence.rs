@@ -17,8 +17,8 @@
 //! iteration is the check of the tangent's consistency here — an inconsistent tangent converges
 //! linearly at best.
 
-use super::{add_lattice, grid_around, result, sweep_labelled, tl_particles, SOLVER_IMPLICIT};
-use crate::cases::neo_hookean;
+use super::{grid_around, result, sweep_labelled, tl_particles, SOLVER_IMPLICIT};
+use crate::cases::{lattice, neo_hookean};
 use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::{Dim, DimOps, Matrix, Real, Solver, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
@@ -77,14 +77,12 @@ where
     );
     let c = Vector::<D>::from_element(0.5);
     let a = velocity_gradient::<D>();
-    let mut particles = tl_particles::<D>();
-    add_lattice(
-        &mut particles,
-        bounds,
-        (0.5 * dx, 1000.0),
-        |_| true,
-        |x| (a * (x - c), a),
-    );
+    let spec = grid_around(bounds, dx, 3);
+    let materials = vec![neo_hookean(YOUNGS, 0.3, 1000.0)];
+    // v = A (x − c), C = A.
+    let block =
+        lattice(&bounds.0, &bounds.1, 0.5 * dx, 0).affine_velocity(Vector::<D>::zeros(), a, c);
+    let particles = tl_particles(&spec, &materials, &[block])?;
     let params = TlmpmParams {
         time_step: TimeStepPolicy::Fixed { dt: DT },
         ..TlmpmParams::default()
@@ -104,14 +102,8 @@ where
         ..ImplicitParams::default()
     };
     let n = particles.len();
-    let mut solver = ImplicitTlmpm::new(
-        grid_around(bounds, dx, 3),
-        params,
-        implicit,
-        vec![neo_hookean(YOUNGS, 0.3, 1000.0)],
-        particles,
-    )
-    .map_err(|e| format!("set-up error: {e}"))?;
+    let mut solver = ImplicitTlmpm::new(spec, params, implicit, materials, particles)
+        .map_err(|e| format!("set-up error: {e}"))?;
     let t = Instant::now();
     solver.step().map_err(|e| e.to_string())?;
     let info = solver.last_newton().clone();

@@ -10,15 +10,14 @@
 //! - the maximum drift of the total momentum relative to `Σ m |v₀|` (exactly zero initially);
 //! - the loss of kinetic + elastic energy relative to the initial energy.
 
-use super::{add_lattice, event_count, grid_around, result, sweep_labelled, tl_particles, Tlmpm};
-use crate::cases::neo_hookean;
+use super::{event_count, grid_around, result, sweep_labelled, tl_particles, Tlmpm};
+use crate::cases::{lattice, neo_hookean};
 use crate::report::{progress, CaseResult, Mode, Run};
-use mpm_core::{Matrix, Real, TimeStepPolicy, Vector};
+use mpm_core::{run_until_with, Body, Real, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, ImplicitParams, NewtonParams, TlmpmParams, Transfer,
 };
 use std::collections::BTreeMap;
-use std::time::Duration;
 
 /// Case name.
 pub const NAME: &str = "two_disks_contact";
@@ -41,21 +40,16 @@ pub(super) const V0: Real = 1.0;
 /// Simulated time (s).
 pub(super) const T_END: Real = 0.3;
 
-/// The two disks at grid spacing `dx` (m); particles `0..n/2` are the left disk.
-fn disks(dx: Real) -> mpm_core::Particles<2> {
-    let mut particles = tl_particles::<2>();
-    for (cx, v) in [(0.5, V0), (1.0, -V0)] {
+/// The two disks at grid spacing `dx` (m): lattices of spacing `dx/2` aligned with each disk's
+/// bounding box, cut to the disk, approaching each other at `V0`; the left disk first.
+fn disks(dx: Real) -> [Body<2>; 2] {
+    [(0.5, V0), (1.0, -V0)].map(|(cx, v)| {
         let c = Vector::<2>::new(cx, 0.5);
         let r = Vector::<2>::from_element(RADIUS);
-        add_lattice(
-            &mut particles,
-            (c - r, c + r),
-            (0.5 * dx, 1000.0),
-            |x| (x - c).norm() <= RADIUS,
-            |_| (Vector::<2>::new(v, 0.0), Matrix::<2>::zeros()),
-        );
-    }
-    particles
+        lattice(&(c - r), &(c + r), 0.5 * dx, 0)
+            .keep(move |x| (x - c).norm() <= RADIUS)
+            .velocity(Vector::<2>::new(v, 0.0))
+    })
 }
 
 /// The two disks at grid spacing `dx` (m) with a fixed step `dt` (s) in the explicit solver or
@@ -84,13 +78,10 @@ pub(super) fn solver(
         },
         ..ImplicitParams::default()
     });
-    Tlmpm::new(
-        grid_around((lo, hi), dx, 3),
-        params,
-        ip,
-        vec![neo_hookean(1e5, 0.3, 1000.0)],
-        disks(dx),
-    )
+    let spec = grid_around((lo, hi), dx, 3);
+    let materials = vec![neo_hookean(1e5, 0.3, 1000.0)];
+    let particles = tl_particles(&spec, &materials, &disks(dx))?;
+    Tlmpm::new(spec, params, ip, materials, particles)
 }
 
 /// One run with grid spacing `dx` (m) of [`solver`] with APIC, implicit (dt = 10⁻³ Δx/0.05 s)
@@ -112,10 +103,8 @@ pub fn run(dx: Real, implicit: bool) -> Result<Run, String> {
     let e0 = d0.kinetic_energy + d0.elastic_energy;
     let contact_distance = dx;
     let (mut min_gap, mut drift, mut contacts) = (Real::INFINITY, 0.0 as Real, 0usize);
-    let mut wall = Duration::ZERO;
-    while s.time() < T_END - 1e-9 {
-        let rep = s.step(&mut wall).map_err(|e| e.to_string())?;
-        contacts += event_count(&rep, "contact_pairs") as usize;
+    let run = run_until_with(&mut *s, T_END, |s, rep| {
+        contacts += event_count(rep, "contact_pairs") as usize;
         let p = s.particles();
         let momentum: Vector<2> = p.v.iter().zip(&p.mass).map(|(v, m)| v * *m).sum();
         drift = drift.max(momentum.norm() / scale);
@@ -131,7 +120,8 @@ pub fn run(dx: Real, implicit: bool) -> Result<Run, String> {
                 min_gap = min_gap.min((xa - xb).norm());
             }
         }
-    }
+    })
+    .map_err(|e| e.to_string())?;
     let d = s.diagnostics();
     let loss = (e0 - d.kinetic_energy - d.elastic_energy) / e0;
     let ratio = min_gap / contact_distance;
@@ -155,7 +145,7 @@ pub fn run(dx: Real, implicit: bool) -> Result<Run, String> {
         dt: s.time() / s.steps() as Real,
         particles: n,
         steps: s.steps(),
-        wall_s: wall.as_secs_f64(),
+        wall_s: run.wall.as_secs_f64(),
         error: (1.0 - ratio).max(0.0),
         extra,
     })

@@ -19,10 +19,9 @@
 use super::two_disks_contact::{solver, T_END};
 use super::{result, sweep_labelled};
 use crate::report::{progress, CaseResult, Mode, Run};
-use mpm_core::Real;
+use mpm_core::{run_until_with, Real};
 use mpm_tlmpm::Transfer;
 use std::collections::BTreeMap;
-use std::time::Duration;
 
 /// Case name.
 pub const NAME: &str = "two_disks_energy";
@@ -51,13 +50,13 @@ pub fn run(t: usize, dx: Real, implicit: bool) -> Result<Run, String> {
     let mut s = solver((dx, 1e-3 * dx / 0.05), implicit, transfer)?;
     let e0 = s.diagnostics().total_energy();
     let (mut deviation, mut contact_max) = (0.0 as Real, 0.0 as Real);
-    let mut wall = Duration::ZERO;
-    while s.time() < T_END - 1e-9 {
-        s.step(&mut wall).map_err(|e| e.to_string())?;
+    let wall = run_until_with(&mut *s, T_END, |s, _| {
         let d = s.diagnostics();
         deviation = deviation.max((d.total_energy() - e0).abs() / e0);
         contact_max = contact_max.max(d.contact_energy);
-    }
+    })
+    .map_err(|e| e.to_string())?
+    .wall;
     let loss = (e0 - s.diagnostics().total_energy()) / e0;
     let mut extra = BTreeMap::new();
     extra.insert("transfer".into(), t as Real);
