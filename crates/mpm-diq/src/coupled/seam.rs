@@ -58,7 +58,7 @@ where
     }
 
     /// Advances one step; a failed solve is a [`StepError::Solve`] with the
-    /// [`CoupledError`]'s message. The step runs on a thread of the rayon pool ([`on_pool`]).
+    /// [`CoupledError`](super::CoupledError)'s message. The step runs on a thread of the rayon pool ([`on_pool`]).
     fn step(&mut self) -> Result<StepInfo, StepError> {
         on_pool(|| self.advance_step()).map_err(|e| e.erase("coupled"))
     }
