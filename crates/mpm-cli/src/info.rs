@@ -43,7 +43,7 @@ pub fn info(path: &Path, scene: bool) -> Result<String, CliError> {
     let n = s
         .fields
         .first()
-        .map(|f| f.spec().shape.first().copied().unwrap_or(0))
+        .map(|f| mpm_io::FieldSpec::of(f).shape.first().copied().unwrap_or(0))
         .unwrap_or(0);
     let _ = writeln!(o, "particles:    {n}");
     let _ = writeln!(

@@ -3,40 +3,20 @@
 //! checkpoint for `--resume`. The solver decides what its columns hold; this module only moves
 //! them between the two representations.
 
-use mpm_core::{Column, ColumnData, Dim, DimOps, Solver, SolverState};
-use mpm_io::{Data, Field, Snapshot};
+use mpm_core::{Column, Dim, DimOps, Solver, SolverState};
+use mpm_io::{Field, Snapshot};
 
 /// Unit system written to every file.
 pub const UNITS: &str = "SI (m, s, kg, Pa); in 2D volumes are areas (m^2)";
 
-/// A column as an `mpm-io` field.
+/// A column as an `mpm-io` field: the same type ([`mpm_io::Field`] is [`mpm_core::Column`]).
 pub fn to_field(c: Column) -> Field {
-    Field {
-        name: c.name,
-        unit: c.unit,
-        data: match c.data {
-            ColumnData::F64 { values, shape } => Data::F64 { values, shape },
-            ColumnData::U32 { values, shape } => Data::U32 { values, shape },
-        },
-    }
+    c
 }
 
 /// An `mpm-io` field as a column.
 pub fn to_column(f: &Field) -> Column {
-    Column {
-        name: f.name.clone(),
-        unit: f.unit.clone(),
-        data: match &f.data {
-            Data::F64 { values, shape } => ColumnData::F64 {
-                values: values.clone(),
-                shape: shape.clone(),
-            },
-            Data::U32 { values, shape } => ColumnData::U32 {
-                values: values.clone(),
-                shape: shape.clone(),
-            },
-        },
-    }
+    f.clone()
 }
 
 /// The snapshot columns named in `names` (as resolved by the scene), in that order; names the

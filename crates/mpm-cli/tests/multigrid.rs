@@ -112,7 +112,7 @@ fn snapshots_hold_the_multigrid_columns_and_render_them() {
     );
     let snaps = numbered_files(&out, "snap_");
     let last = read_file(&snaps.last().expect("snapshots").1).expect("readable");
-    let n = last.field("x").expect("x").spec().shape[0];
+    let n = mpm_io::FieldSpec::of(last.field("x").expect("x")).shape[0];
     let names: Vec<&str> = last.fields.iter().map(|f| f.name.as_str()).collect();
     for name in ["phase", "phi_eff", "concentration"] {
         assert!(names.contains(&name), "no {name} in {names:?}");

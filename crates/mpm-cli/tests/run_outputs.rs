@@ -17,12 +17,12 @@ fn layout(out: &Path) -> (usize, Vec<FieldLayout>) {
     let snaps = numbered_files(out, "snap_");
     let s = read_file(&snaps.last().expect("a snapshot").1).expect("readable");
     assert_eq!(s.header.kind, FileKind::Snapshot);
-    let n = s.field("x").expect("x").spec().shape[0];
+    let n = mpm_io::FieldSpec::of(s.field("x").expect("x")).shape[0];
     let fields = s
         .fields
         .iter()
         .map(|f| {
-            let sp = f.spec();
+            let sp = mpm_io::FieldSpec::of(f);
             assert_eq!(sp.shape[0], n, "{} has N = {}", sp.name, sp.shape[0]);
             (sp.name, sp.unit, sp.shape[1..].to_vec(), sp.integer)
         })

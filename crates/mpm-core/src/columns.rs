@@ -29,6 +29,23 @@ pub enum ColumnData {
     },
 }
 
+impl ColumnData {
+    /// Shape `[N, …]` of the array.
+    pub fn shape(&self) -> &[usize] {
+        match self {
+            ColumnData::F64 { shape, .. } | ColumnData::U32 { shape, .. } => shape,
+        }
+    }
+
+    /// Number of stored values (the slice length, not the number of rows).
+    pub fn value_count(&self) -> usize {
+        match self {
+            ColumnData::F64 { values, .. } => values.len(),
+            ColumnData::U32 { values, .. } => values.len(),
+        }
+    }
+}
+
 /// One named column.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Column {

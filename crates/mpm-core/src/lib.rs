@@ -19,6 +19,7 @@ pub mod mirror;
 pub mod neighbors;
 pub mod particles;
 pub mod prefetch;
+pub mod prelude;
 pub mod quasistatic;
 pub mod sampling;
 pub mod scatter;

@@ -11,6 +11,7 @@
 //! the boundaries; optional stages diffuse concentrations (miscible mixing) and update φ_eff and
 //! dissolution progress. A single-phase scene runs none of them.
 
+mod advice;
 mod blocks;
 mod coupling;
 mod g2p;
@@ -24,6 +25,7 @@ mod plan;
 mod solver;
 mod validate;
 
+pub use advice::{too_compressible, TooCompressible};
 pub use multigrid::{
     Activation, BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, DiffusionScheme,
     Dissolution, Drag, EffectiveFraction, Friction, Mixing, Phases, Porous, PressureBuoyancy,

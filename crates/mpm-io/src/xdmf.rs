@@ -28,7 +28,7 @@ impl SeriesEntry {
             time: header.time,
             file: file.into(),
             dim: header.dim,
-            fields: fields.iter().map(Field::spec).collect(),
+            fields: fields.iter().map(FieldSpec::of).collect(),
         }
     }
 }

@@ -2,7 +2,7 @@
 
 use mpm_io::{
     list_files, read_file, read_header, read_layout, reseal, write_file, write_file_with, Data,
-    Field, FileKind, Header, IoError, Storage,
+    Field, FieldSpec, FileKind, Header, IoError, Storage,
 };
 use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -193,7 +193,7 @@ fn roundtrip(dir_name: &str, kind: FileKind, dim: usize, n: usize) {
     assert_eq!(read_header(&path).unwrap(), h);
     let (h2, specs) = read_layout(&path).unwrap();
     assert_eq!(h2, h);
-    assert_eq!(specs, fs.iter().map(Field::spec).collect::<Vec<_>>());
+    assert_eq!(specs, fs.iter().map(FieldSpec::of).collect::<Vec<_>>());
 }
 
 #[test]

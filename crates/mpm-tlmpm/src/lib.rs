@@ -72,7 +72,7 @@ pub use contact::{ContactInput, ContactRadius, ContactStats, Obstacle, ParticleC
 pub use error::{NewtonError, StepError};
 pub use explicit::ExplicitTlmpm;
 pub use implicit::{ImplicitTlmpm, Predicted, Projected, Transferred};
-pub use loads::{NodalLoad, NodeSelection, SurfaceTraction};
+pub use loads::{EmptyLoad, NodalLoad, NodeSelection, ParticleLoad, SurfaceTraction};
 pub use mpm_linalg::CholeskyError;
 pub use newton::{fitted_order, NewtonInfo};
 pub use params::{

@@ -1,6 +1,7 @@
-//! Applied loads on the reference grid: nodal loads ([`NodalLoad`]) and surface tractions
-//! ([`SurfaceTraction`]), both dead loads (fixed direction and magnitude, optionally ramped from
-//! zero) added to the external nodal forces of every step.
+//! Applied loads: nodal loads ([`NodalLoad`]) and surface tractions ([`SurfaceTraction`]) on the
+//! reference grid, both dead loads (fixed direction and magnitude, optionally ramped from zero)
+//! added to the external nodal forces of every step, and loads on particles ([`ParticleLoad`]),
+//! shared by the particles in a box as per-particle forces.
 //!
 //! **Nodal loads.** The total force is shared equally by the selected active nodes of the
 //! reference grid, so the nodes receive exactly `force` between them (to round-off).
@@ -23,7 +24,54 @@
 use crate::reference::ReferenceConfig;
 use mpm_core::neighbors::CellList;
 use mpm_core::quasistatic::{gravity_at, GravityRamp};
-use mpm_core::{Real, SetupError, Vector};
+use mpm_core::{Particles, Real, SetupError, Vector};
+
+/// A total force (N; N/m in 2D) on the particles initially in the box `[min, max]` (m,
+/// inclusive), shared in proportion to their mass, so the particles receive exactly `force`
+/// between them (to round-off) and a uniform body accelerates uniformly. Applied as
+/// per-particle forces (`TotalLagrangian::particle_forces_mut`), held over every step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParticleLoad<const D: usize> {
+    /// Lower corner (m).
+    pub min: Vector<D>,
+    /// Upper corner (m).
+    pub max: Vector<D>,
+    /// Total force (N; N/m in 2D).
+    pub force: Vector<D>,
+}
+
+/// A [`ParticleLoad`] whose box holds no particle (or only massless ones).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("no particle lies in the load's box")]
+pub struct EmptyLoad;
+
+impl<const D: usize> ParticleLoad<D> {
+    /// Adds each particle's share of the load to `forces` (N, one per particle).
+    pub fn distribute(
+        &self,
+        particles: &Particles<D>,
+        forces: &mut [Vector<D>],
+    ) -> Result<(), EmptyLoad> {
+        let (lo, hi) = (self.min, self.max);
+        let inside = |x: &Vector<D>| (0..D).all(|a| x[a] >= lo[a] && x[a] <= hi[a]);
+        let mass: Real = particles
+            .x
+            .iter()
+            .zip(&particles.mass)
+            .filter(|(x, _)| inside(x))
+            .map(|(_, m)| m)
+            .sum();
+        if mass <= 0.0 {
+            return Err(EmptyLoad);
+        }
+        for ((f, x), m) in forces.iter_mut().zip(&particles.x).zip(&particles.mass) {
+            if inside(x) {
+                *f += self.force * (m / mass);
+            }
+        }
+        Ok(())
+    }
+}
 
 /// Which reference-grid nodes a nodal load acts on.
 #[derive(Clone, Copy, Debug, PartialEq)]

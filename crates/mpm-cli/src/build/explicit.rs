@@ -11,13 +11,13 @@ use crate::scene::{
     CouplingDef, CouplingKindDef, DragDef, ExplicitScene, FrictionModel, InitialVolume,
     LoadedScene, Scene, TransferKind, FLIP_BLEND_DEFAULT,
 };
-use mpm_core::geostatic::{set_geostatic, top_height};
+use mpm_core::geostatic::set_geostatic;
 use mpm_core::material::{Interaction, Scaling};
 use mpm_core::volume::estimate_volumes;
-use mpm_core::{Dim, DimOps, GridSpec, Material, Particles, Real, Vector};
+use mpm_core::{Dim, DimOps, GridSpec, Material, Particles};
 use mpm_explicit::{
-    BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, Dissolution, Drag, ExplicitParams,
-    ExplicitSolver, Friction, Mixing, Phases, Porous, PressureBuoyancy, Transfer,
+    too_compressible, BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, Dissolution, Drag,
+    ExplicitParams, ExplicitSolver, Friction, Mixing, Phases, Porous, PressureBuoyancy, Transfer,
 };
 
 /// The scene keys of the explicit solver's parameter names (`SetupError::InvalidParameter`).
@@ -161,10 +161,8 @@ fn uncoupled_phases(sc: &Scene, own: &ExplicitScene) -> Vec<String> {
         .collect()
 }
 
-/// A warning for each fluid body whose expected flow speed √(2 g H), times 10, exceeds the sound
-/// speed √(K/ρ) of its material: H (m) is the height of the body's top surface above the
-/// bottom of the grid along gravity, the largest drop the fluid can make. A weakly compressible
-/// fluid needs its sound speed about 10× the flow speed (density errors of order (v/c)²).
+/// A warning for each fluid body that is too compressible for its expected flow
+/// ([`too_compressible`]).
 fn compressibility_warnings<const D: usize>(
     sc: &Scene,
     spec: &GridSpec<D>,
@@ -173,33 +171,24 @@ fn compressibility_warnings<const D: usize>(
     bodies: &[BodyInfo],
 ) -> Vec<String> {
     let g = vector::<D>(&sc.simulation.gravity);
-    let gravity = g.norm();
-    if gravity == 0.0 {
-        return Vec::new();
-    }
-    let up = -g / gravity;
-    let far = spec.origin + Vector::<D>::from_fn(|a, _| (spec.size[a] - 1) as Real * spec.dx);
-    let floor: Real = (0..D)
-        .map(|a| (up[a] * spec.origin[a]).min(up[a] * far[a]))
-        .sum();
     let mut out = Vec::new();
     for (def, body) in sc.bodies.iter().zip(bodies) {
         let Some(Material::Fluid(fluid)) = materials.get(def.material_index) else {
             continue;
         };
-        let height = top_height(particles, body.particles.clone(), &up) - floor;
-        let flow = (2.0 * gravity * height).sqrt();
-        let sound = fluid.sound_speed(1.0);
-        if 10.0 * flow > sound {
+        if let Some(t) = too_compressible(spec, &g, fluid, particles, body.particles.clone()) {
             out.push(format!(
-                "body \"{}\": 10 x the expected flow speed sqrt(2 g H) = 10 x {flow:.3} m/s \
-                 (H = {height:.3} m, its top above the bottom of the grid) exceeds the sound \
-                 speed {sound:.3} m/s of material \"{}\": the fluid is too compressible \
+                "body \"{}\": 10 x the expected flow speed sqrt(2 g H) = 10 x {:.3} m/s \
+                 (H = {:.3} m, its top above the bottom of the grid) exceeds the sound \
+                 speed {:.3} m/s of material \"{}\": the fluid is too compressible \
                  (density errors of order (v/c)^2); a bulk_modulus of at least {:.3e} Pa \
                  keeps c >= 10 sqrt(2 g H)",
                 def.name,
+                t.flow_speed,
+                t.height,
+                t.sound_speed,
                 def.material,
-                fluid.density * 200.0 * gravity * height
+                t.bulk_modulus_needed
             ));
         }
     }

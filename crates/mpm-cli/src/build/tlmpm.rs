@@ -17,7 +17,8 @@ use mpm_core::sampling::vector_text;
 use mpm_core::{Dim, DimOps, GridSpec, Particles, Vector};
 use mpm_tlmpm::{
     ClampPlane, ContactParams, ContactRadius, FixedRegion, ImplicitParams, LinearSolver,
-    NewtonParams, NodalLoad, NodeSelection, Obstacle, SurfaceTraction, TlmpmParams, Transfer,
+    NewtonParams, NodalLoad, NodeSelection, Obstacle, ParticleLoad, SurfaceTraction, TlmpmParams,
+    Transfer,
 };
 
 /// The scene keys of the TLMPM solver's parameter names (`SetupError::InvalidParameter`).
@@ -162,8 +163,7 @@ pub(super) fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
     }
 }
 
-/// The per-particle forces (N) of `[[loads]]`: each load's total force shared by the particles
-/// initially in its box, in proportion to their mass. `None` without loads.
+/// The per-particle forces (N) of `[[loads]]` ([`ParticleLoad`]); `None` without loads.
 fn load_forces<const D: usize>(
     scene: &LoadedScene,
     loads: &[LoadDef],
@@ -174,17 +174,13 @@ fn load_forces<const D: usize>(
     }
     let mut forces = vec![Vector::<D>::zeros(); particles.len()];
     for (i, l) in loads.iter().enumerate() {
-        let (lo, hi) = (vector::<D>(&l.min), vector::<D>(&l.max));
-        let inside = |x: &Vector<D>| (0..D).all(|a| x[a] >= lo[a] && x[a] <= hi[a]);
-        let mass: f64 = particles
-            .x
-            .iter()
-            .zip(&particles.mass)
-            .filter(|(x, _)| inside(x))
-            .map(|(_, m)| m)
-            .sum();
-        if mass <= 0.0 {
-            return Err(scene.error(
+        let load = ParticleLoad {
+            min: vector::<D>(&l.min),
+            max: vector::<D>(&l.max),
+            force: vector::<D>(&l.force),
+        };
+        load.distribute(particles, &mut forces).map_err(|_| {
+            scene.error(
                 &format!("loads[{i}].min"),
                 format!(
                     "load \"{}\" selects no particle: no particle lies in the box {} .. {}",
@@ -192,14 +188,8 @@ fn load_forces<const D: usize>(
                     vector_text(&l.min),
                     vector_text(&l.max)
                 ),
-            ));
-        }
-        let total = vector::<D>(&l.force);
-        for ((f, x), m) in forces.iter_mut().zip(&particles.x).zip(&particles.mass) {
-            if inside(x) {
-                *f += total * (m / mass);
-            }
-        }
+            )
+        })?;
     }
     Ok(Some(forces))
 }

@@ -101,9 +101,14 @@ pub fn assert_outputs_intact(out: &Path, what: &str) -> (usize, usize) {
     for (k, (frame, path)) in snaps.iter().enumerate() {
         assert_eq!(*frame, k as u64, "{what}: frames are consecutive");
         let s = mpm_io::read_file(path).unwrap_or_else(|e| panic!("{what}: {e}"));
-        let len = s.field("x").expect("x").spec().shape[0];
+        let len = mpm_io::FieldSpec::of(s.field("x").expect("x")).shape[0];
         assert_eq!(*n.get_or_insert(len), len, "{what}: particle count");
-        assert!(s.fields.iter().all(|f| f.spec().shape[0] == len), "{what}");
+        assert!(
+            s.fields
+                .iter()
+                .all(|f| mpm_io::FieldSpec::of(f).shape[0] == len),
+            "{what}"
+        );
     }
     for (_, path) in &ckpts {
         mpm_io::read_file(path).unwrap_or_else(|e| panic!("{what}: checkpoint: {e}"));

@@ -41,6 +41,30 @@ pub enum Material {
 }
 
 impl Material {
+    /// A compressible Neo-Hookean solid of density `density` (kg/m^D), Young's modulus `young`
+    /// (Pa) and Poisson's ratio `poisson`, without plasticity.
+    pub fn neo_hookean(density: Real, young: Real, poisson: Real) -> Self {
+        Material::Solid(SolidMaterial {
+            density,
+            elastic: ElasticModel::NeoHookean(Lame::from_young_poisson(young, poisson)),
+            plasticity: Plasticity::None,
+        })
+    }
+
+    /// A Newtonian fluid of rest density `density` (kg/m^D), Tait bulk modulus `bulk_modulus`
+    /// (Pa) with exponent 7, and dynamic viscosity `viscosity` (Pa·s). The incompressible DIQ
+    /// fluid reads only the density and the viscosity.
+    pub fn fluid(density: Real, bulk_modulus: Real, viscosity: Real) -> Self {
+        Material::Fluid(FluidMaterial {
+            density,
+            eos: Tait {
+                bulk_modulus,
+                gamma: 7.0,
+            },
+            viscosity,
+        })
+    }
+
     /// Reference (rest) density (kg/m^D).
     pub fn density(&self) -> Real {
         match self {

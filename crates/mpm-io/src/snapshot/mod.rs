@@ -10,35 +10,12 @@ use read::{field_dataset, field_order, field_spec, open, particles_group, read_h
 use std::path::{Path, PathBuf};
 use write::{validate, write_hdf5};
 
-/// Numeric payload of a field, row-major with `shape[0] = N` particles.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Data {
-    /// 64-bit floats.
-    F64 {
-        /// Values, row-major.
-        values: Vec<f64>,
-        /// Shape `[N, …]`.
-        shape: Vec<usize>,
-    },
-    /// 32-bit unsigned integers (indices).
-    U32 {
-        /// Values, row-major.
-        values: Vec<u32>,
-        /// Shape `[N, …]`.
-        shape: Vec<usize>,
-    },
-}
-
-/// A named per-particle array with its unit.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Field {
-    /// Dataset name under `/particles`.
-    pub name: String,
-    /// Unit string (e.g. "m", "m/s", "kg", "Pa", "1").
-    pub unit: String,
-    /// The data.
-    pub data: Data,
-}
+/// A named per-particle array with its unit: a dataset under `/particles`. It is the column
+/// type the solvers write ([`mpm_core::Column`]): one type from the solver to the file.
+pub use mpm_core::columns::Column as Field;
+/// Numeric payload of a field, row-major with `shape[0] = N` particles
+/// ([`mpm_core::ColumnData`]).
+pub use mpm_core::columns::ColumnData as Data;
 
 /// Name, unit, shape and number type of a field, without its values.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -56,6 +33,23 @@ pub struct FieldSpec {
     pub single: bool,
 }
 
+impl FieldSpec {
+    /// The name, unit, shape and type of `field` (as stored in `f64`).
+    pub fn of(field: &Field) -> Self {
+        let (shape, integer) = match &field.data {
+            Data::F64 { shape, .. } => (shape.clone(), false),
+            Data::U32 { shape, .. } => (shape.clone(), true),
+        };
+        FieldSpec {
+            name: field.name.clone(),
+            unit: field.unit.clone(),
+            shape,
+            integer,
+            single: false,
+        }
+    }
+}
+
 /// How the floating-point datasets of a snapshot are stored. The default, `f64` and
 /// uncompressed, is the only storage of checkpoints: they must round-trip bit for bit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -70,26 +64,9 @@ pub struct Storage {
 impl Storage {
     /// The spec of `field` as stored with this storage.
     pub fn spec(&self, field: &Field) -> FieldSpec {
-        let mut spec = field.spec();
+        let mut spec = FieldSpec::of(field);
         spec.single = self.single && !spec.integer;
         spec
-    }
-}
-
-impl Field {
-    /// The field's name, unit, shape and type.
-    pub fn spec(&self) -> FieldSpec {
-        let (shape, integer) = match &self.data {
-            Data::F64 { shape, .. } => (shape.clone(), false),
-            Data::U32 { shape, .. } => (shape.clone(), true),
-        };
-        FieldSpec {
-            name: self.name.clone(),
-            unit: self.unit.clone(),
-            shape,
-            integer,
-            single: false,
-        }
     }
 }
 
@@ -173,23 +150,6 @@ pub const RESERVED_ROOT_ATTRS: [&str; 9] = [
     "code_version",
     EXTRA_ATTRS_ATTR,
 ];
-
-impl Data {
-    /// Shape `[N, …]` of the array.
-    pub fn shape(&self) -> &[usize] {
-        match self {
-            Data::F64 { shape, .. } | Data::U32 { shape, .. } => shape,
-        }
-    }
-
-    /// Number of stored values (the slice length, not the number of particles).
-    fn value_count(&self) -> usize {
-        match self {
-            Data::F64 { values, .. } => values.len(),
-            Data::U32 { values, .. } => values.len(),
-        }
-    }
-}
 
 impl FileKind {
     /// The value of the `kind` attribute: `"snapshot"` or `"checkpoint"`.
