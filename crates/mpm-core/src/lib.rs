@@ -6,6 +6,26 @@
 //!
 //! Units are SI throughout (m, s, kg, Pa); in 2D "volume" means area (m²) and densities are per
 //! unit area (kg/m²).
+//!
+//! A program sets up a scene through this crate and hands it to a solver crate: bodies sampled
+//! into particles by [`ParticlesBuilder`], a grid, materials and boundaries; every solver then
+//! runs behind the one [`Solver`] interface (`step`, `run_until`, diagnostics, checkpoints).
+//! `use mpm_core::prelude::*;` brings the names in.
+//!
+//! ```
+//! use mpm_core::prelude::*;
+//!
+//! // A 0.2 m disk of jelly in a 1 m × 1 m grid of 5 cm cells, 2 × 2 particles per cell.
+//! let spec = GridSpec::<2>::covering(Vector::<2>::zeros(), Vector::<2>::new(1.0, 1.0), 0.05);
+//! let materials = [Material::neo_hookean(1000.0, 1e5, 0.3)];
+//! let disk = Body::new(Shape::Sphere { center: Vector::<2>::new(0.5, 0.5), radius: 0.2 }, 0)
+//!     .velocity(Vector::<2>::new(1.0, 0.0));
+//! let particles = ParticlesBuilder::new(&spec, &materials).with(&disk).unwrap().build();
+//! // The lattice resolves the disk's area π r² to within a particle spacing around it.
+//! let area: f64 = particles.volume0.iter().sum();
+//! assert!((area - std::f64::consts::PI * 0.04).abs() < 0.025 * 2.0 * std::f64::consts::PI * 0.2);
+//! assert!(particles.v.iter().all(|v| v.x == 1.0));
+//! ```
 
 pub mod boundary;
 pub mod columns;
