@@ -1,25 +1,25 @@
-//! The explicit MLS-MPM solver on one background grid.
+//! The explicit MLS-MPM solver on one background grid: its set-up, workspace, step driver and
+//! accessors. The stage methods (sort, volumes, diffusion, P2G, grid update, coupling, G2P,
+//! commit) are in `stages`, the `Solver` implementation with checkpoint and restore in `seam`.
 
-use crate::blocks::{Blocks, GridRef};
+mod seam;
+mod stages;
+
+use crate::blocks::Blocks;
 use crate::coupling::{self, GeometryNeeds, PhaseGeometry};
-use crate::g2p::{self, Extra, ExtraContext, G2pContext, Moving};
-use crate::grid_update::{self, NodeForces};
+use crate::g2p::{Extra, Moving};
 use crate::materials::MaterialView;
-use crate::mixing::{self, MixingWork};
-use crate::p2g;
+use crate::mixing::MixingWork;
 use crate::params::{ExplicitParams, Transfer, VolumeUpdate};
 use mpm_core::boundary::Boundaries;
 use mpm_core::material::Parameter;
 use mpm_core::mirror::MirrorWalls;
-use mpm_core::quasistatic::gravity_at;
-use mpm_core::solver::{nan_max, DtBound, RestoreError, StageTime};
+use mpm_core::solver::nan_max;
 use mpm_core::timestep::{choose_dt, stable_dt};
-use mpm_core::volume::density_at;
 use mpm_core::{
-    columns, on_pool, retry_halving, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec,
-    Location, Material, NodeLayout, OnInstability, Particles, Real, SetupError, Solver,
-    SolverState, Stage, StagePlan, StageTimes, StepError, StepInfo, StepStart, TimeStepPolicy,
-    Vector, Violation,
+    retry_halving, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec, Location, Material,
+    NodeLayout, OnInstability, Particles, Real, SetupError, Stage, StagePlan, StageTimes,
+    StepError, StepInfo, StepStart, TimeStepPolicy, Vector, Violation,
 };
 use rayon::prelude::*;
 use std::convert::Infallible;
@@ -214,7 +214,8 @@ where
             || self.params.dissolution.is_some()
     }
 
-    /// [`Solver::step`] on the calling thread, with the shared step machinery.
+    /// [`Solver::step`](mpm_core::Solver::step) on the calling thread, with the shared step
+    /// machinery.
     fn advance_step(&mut self) -> Result<StepInfo, StepError<Infallible>> {
         let start = StepStart {
             step: self.steps,
@@ -324,287 +325,6 @@ where
                 .map_err(|e| start.error(Failure::Guard(Stage::Coupling, e), dt, 0))?;
         }
         Ok(PreparedG2p { solver: self, dt })
-    }
-
-    /// Stage: bins each phase's particles into grid blocks for the deterministic parallel
-    /// scatter, and lays out the sparse grid: the blocks the phases reach, and with mirrored
-    /// walls the blocks of their ghosts' mirrors.
-    fn sort_particles(&mut self) {
-        let t = Instant::now();
-        let phase = self.particles.phase.as_deref();
-        let ws = &mut self.ws;
-        ws.layout.begin(&self.spec);
-        for (k, blocks) in ws.blocks.iter_mut().enumerate() {
-            let only = phase.map(|ph| (ph, k as u32));
-            blocks.sort(&self.spec, self.params.kernel, &self.particles.x, only);
-            blocks.mark(&mut ws.layout);
-        }
-        if let Some(m) = &self.mirror {
-            m.mark(&mut ws.layout);
-        }
-        ws.layout.finish();
-        self.stats.add(Stage::Sort, t.elapsed());
-    }
-
-    /// Stage (optional): re-estimates fluid volumes from the grid density.
-    fn reestimate_volumes(&mut self) {
-        let t = Instant::now();
-        let (spec, kernel) = (&self.spec, self.params.kernel);
-        let layout = &self.ws.layout;
-        for (blocks, grid) in self.ws.blocks.iter_mut().zip(self.ws.grids.iter_mut()) {
-            p2g::p2g_mass(spec, layout, kernel, &self.particles, blocks, grid);
-            if let Some(m) = &self.mirror {
-                m.mirror_mass(layout, &mut grid.mass);
-            }
-        }
-        let Particles {
-            x,
-            mass,
-            volume0,
-            material,
-            jacobian,
-            phase,
-            ..
-        } = &mut self.particles;
-        if let Some(jac) = jacobian {
-            let (grids, materials) = (&self.ws.grids, &self.materials);
-            let phase = phase.as_deref();
-            jac.par_iter_mut().enumerate().for_each(|(p, j)| {
-                if matches!(materials[material[p] as usize], Material::Fluid(_)) {
-                    let grid_mass = &grids[phase.map_or(0, |k| k[p] as usize)].mass;
-                    *j =
-                        mass[p] / (density_at(spec, kernel, layout, grid_mass, &x[p]) * volume0[p]);
-                }
-            });
-        }
-        self.stats.add(Stage::Volume, t.elapsed());
-    }
-
-    /// Stage (mixing only): diffuses the concentration of the mixing fluids over a step of
-    /// `dt` (s) into scratch storage, committed with the step. Requires [`Self::sort_particles`].
-    fn diffuse(&mut self, dt: Real) {
-        let Some(mix) = &self.params.mixing else {
-            return;
-        };
-        let t = Instant::now();
-        let phase = self.mixing_phase();
-        let grid = GridRef {
-            spec: &self.spec,
-            layout: &self.ws.layout,
-            kernel: self.params.kernel,
-        };
-        mixing::diffuse(
-            grid,
-            mix,
-            &self.particles,
-            &mut self.ws.blocks[phase],
-            &mut self.ws.mixing,
-            dt,
-        );
-        self.stats.add(Stage::Diffusion, t.elapsed());
-    }
-
-    /// The phase of the mixing fluids (all in one phase, checked at setup).
-    fn mixing_phase(&self) -> usize {
-        let fluids = self.params.mixing.map_or([u32::MAX; 2], |m| m.fluids);
-        (0..self.particles.len())
-            .find(|&p| fluids.contains(&self.particles.material[p]))
-            .map_or(0, |p| self.particles.phase_of(p) as usize)
-    }
-
-    /// Whether P2G also transfers the momentum without forces (FLIP's old velocities, the
-    /// damping's velocity before the update).
-    fn needs_momentum0(&self) -> bool {
-        matches!(self.params.transfer, Transfer::Flip { .. }) || !self.params.damping.is_off()
-    }
-
-    /// Stage: P2G of every phase onto its own grid, with the fused MLS stress impulse for a step
-    /// of `dt` (s). Requires [`Self::sort_particles`] first.
-    fn particle_to_grid(&mut self, dt: Real) {
-        let t = Instant::now();
-        let with0 = self.needs_momentum0();
-        let view = material_view(&self.materials, &self.params);
-        let Workspace {
-            layout,
-            blocks,
-            grids,
-            velocity_old,
-            ..
-        } = &mut self.ws;
-        let inputs = p2g::P2gInputs {
-            spec: &self.spec,
-            layout,
-            kernel: self.params.kernel,
-            transfer: self.params.transfer,
-            particles: &self.particles,
-            materials: &view,
-            body_force: self.params.body_force.as_ref(),
-            step: (self.time, dt),
-        };
-        for ((blocks, grid), v0) in blocks
-            .iter_mut()
-            .zip(grids.iter_mut())
-            .zip(velocity_old.iter_mut())
-        {
-            inputs.p2g(blocks, grid, with0.then_some(v0));
-        }
-        self.stats.add(Stage::P2G, t.elapsed());
-    }
-
-    /// Gravity (m/s²) at the start of the step, ramped where the parameters ramp it.
-    fn gravity(&self) -> Vector<D> {
-        gravity_at(
-            &self.params.gravity,
-            self.params.gravity_ramp.as_ref(),
-            self.time,
-        )
-    }
-
-    /// Stage: grid velocities, gravity and damping for every phase; boundaries too on a single
-    /// grid (multi-grid runs apply them after the coupling stage).
-    fn update_grid(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
-        let t = Instant::now();
-        let with0 = self.needs_momentum0();
-        let forces = NodeForces {
-            gravity: self.gravity(),
-            damping: (!self.params.damping.is_off()).then_some(self.params.damping),
-        };
-        let boundaries = (!self.multigrid()).then_some(&self.boundaries);
-        let mut r = Ok(());
-        let layout = &self.ws.layout;
-        for (grid, v0) in self
-            .ws
-            .grids
-            .iter_mut()
-            .zip(self.ws.velocity_old.iter_mut())
-        {
-            if let Some(m) = &self.mirror {
-                fold_ghosts(m, layout, grid, with0.then_some(v0), forces.gravity * dt);
-            }
-            let at = GridRef {
-                spec: &self.spec,
-                layout,
-                kernel: self.params.kernel,
-            };
-            r = r.and(grid_update::update(
-                at,
-                grid,
-                with0.then_some(v0),
-                boundaries,
-                &forces,
-                self.time,
-                dt,
-            ));
-            if let (Some(m), Some(_)) = (&self.mirror, boundaries) {
-                fill_ghosts(m, layout, grid, with0.then_some(v0));
-            }
-        }
-        self.stats.add(Stage::GridUpdate, t.elapsed());
-        r
-    }
-
-    /// Stage (multi-grid only): scatters the normals and rest densities the couplings need,
-    /// applies every coupling in order, then the boundaries of every phase.
-    fn couple_phases(&mut self, dt: Real) -> Result<(), (Location, Violation, Real)> {
-        let t = Instant::now();
-        let view = material_view(&self.materials, &self.params);
-        let gravity = self.gravity();
-        let with0 = self.needs_momentum0();
-        let ws = &mut self.ws;
-        for (k, needs) in self.geometry_needs.iter().enumerate() {
-            if needs.geometry {
-                coupling::scatter_geometry(
-                    GridRef {
-                        spec: &self.spec,
-                        layout: &ws.layout,
-                        kernel: self.params.kernel,
-                    },
-                    &self.particles,
-                    &view,
-                    &mut ws.blocks[k],
-                    &mut ws.geometry[k],
-                    needs.pressure,
-                );
-            }
-        }
-        for c in &self.params.phases.couplings {
-            coupling::couple(&self.spec, c, &mut ws.grids, &ws.geometry, &gravity, dt);
-        }
-        let mut r = Ok(());
-        for (grid, v0) in ws.grids.iter_mut().zip(ws.velocity_old.iter_mut()) {
-            r = r.and(grid_update::apply_boundaries(
-                &self.spec,
-                &ws.layout,
-                grid,
-                &self.boundaries,
-                self.time,
-            ));
-            if let Some(m) = &self.mirror {
-                fill_ghosts(m, &ws.layout, grid, with0.then_some(v0));
-            }
-        }
-        self.stats.add(Stage::Coupling, t.elapsed());
-        r
-    }
-
-    /// Stage: G2P with guard checks, writing the particles in place. The multi-grid particle
-    /// state is gathered first, from the positions at the start of the step, into scratch.
-    /// Returns the new state's largest signal speed (m/s) under an adaptive dt, else 0.
-    fn grid_to_particle(&mut self, dt: Real) -> Result<Real, (Location, Violation, Real)> {
-        let t = Instant::now();
-        let flip = matches!(self.params.transfer, Transfer::Flip { .. });
-        let ws = &mut self.ws;
-        for ((blocks, grid), v0) in ws.blocks.iter_mut().zip(&ws.grids).zip(&ws.velocity_old) {
-            blocks.load_velocities(&ws.layout, &grid.velocity, flip.then_some(v0.as_slice()));
-        }
-        let ctx = G2pContext {
-            spec: &self.spec,
-            layout: &self.ws.layout,
-            kernel: self.params.kernel,
-            transfer: self.params.transfer,
-            materials: material_view(&self.materials, &self.params),
-            soft_walls: self.params.soft_walls,
-            signal_speed: matches!(self.params.time_step, TimeStepPolicy::Adaptive { .. }),
-        };
-        if self.has_extra_state() {
-            let mixing_ran = self.params.mixing.is_some();
-            let extra = ExtraContext {
-                porous: self.params.porous.as_ref(),
-                dissolution: self.params.dissolution.as_ref(),
-                node_concentration: &self.ws.mixing.concentration,
-                alpha: mixing_ran.then_some(self.ws.mixing.alpha.as_slice()),
-            };
-            ctx.gather_extra(
-                &self.particles,
-                &self.ws.grids,
-                &extra,
-                &mut self.ws.extras,
-                dt,
-            );
-        }
-        let r = ctx.advance(
-            &mut self.particles,
-            &self.ws.blocks,
-            &self.ws.grids,
-            flip.then_some(self.ws.velocity_old.as_slice()),
-            dt,
-        );
-        self.stats.add(Stage::G2P, t.elapsed());
-        r
-    }
-
-    /// Stage (multi-grid state only): writes the gathered volume fractions, concentrations and
-    /// dissolution into the particles once G2P has passed its checks.
-    fn commit_extra(&mut self) {
-        let t = Instant::now();
-        g2p::commit_extra(
-            &mut self.particles,
-            &self.ws.extras,
-            &self.materials,
-            self.params.mixing.as_ref(),
-            self.params.dissolution.as_ref(),
-        );
-        self.stats.add(Stage::Commit, t.elapsed());
     }
 
     /// The stable explicit step bound (s) for the current state, before `dt_max`:
@@ -752,116 +472,6 @@ where
             self.solver.commit_extra();
         }
         Ok(())
-    }
-}
-
-/// The explicit solver behind the solver seam; its particles are its whole state.
-impl<const D: usize> Solver<D> for ExplicitSolver<D>
-where
-    Dim<D>: DimOps<D>,
-{
-    fn name(&self) -> &'static str {
-        "explicit MLS-MPM"
-    }
-
-    fn spec(&self) -> &GridSpec<D> {
-        &self.spec
-    }
-
-    fn particles(&self) -> &Particles<D> {
-        &self.particles
-    }
-
-    fn materials(&self) -> &[Material] {
-        &self.materials
-    }
-
-    fn time(&self) -> Real {
-        self.time
-    }
-
-    fn steps(&self) -> u64 {
-        self.steps
-    }
-
-    fn stable_dt(&self) -> Real {
-        ExplicitSolver::stable_dt(self)
-    }
-
-    fn dt_bound(&self) -> DtBound {
-        DtBound {
-            description: "min(dx / max(|v| + c), viscous limit)",
-            limits_fixed_dt: true,
-        }
-    }
-
-    fn diagnostics(&self) -> Diagnostics<D> {
-        ExplicitSolver::diagnostics(self)
-    }
-
-    fn plan(&self) -> StagePlan {
-        self.plan.clone()
-    }
-
-    /// Advances one step. On a failed guard check the step is retried with dt/2 when the policy
-    /// allows it; otherwise an [`mpm_core::Instability`] names the step, stage, particle or
-    /// node and value (this solver has no iterative solve that could fail). G2P writes the particles in
-    /// place, so after a failed step under [`OnInstability::Abort`] they hold the failed step's
-    /// partial result (time and the step count do not advance); under
-    /// [`OnInstability::Retry`] the saved state is put back before each retry. The step runs on
-    /// a thread of the rayon pool ([`on_pool`]).
-    fn step(&mut self) -> Result<StepInfo, StepError> {
-        on_pool(|| self.advance_step()).map_err(|e| match e {
-            StepError::Instability(i) => StepError::Instability(i),
-            StepError::Solve { source, .. } => match source {},
-        })
-    }
-
-    fn stage_times(&self) -> Vec<StageTime> {
-        self.stats.rows(&self.plan)
-    }
-
-    fn checkpoint(&self) -> SolverState {
-        SolverState::of_particles(&self.particles, self.time, self.steps)
-    }
-
-    fn restore(&mut self, state: &SolverState) -> Result<(), RestoreError> {
-        let particles =
-            columns::particles_from_columns(&state.columns, &self.particles, self.materials.len())?;
-        *self = self
-            .with_particles(particles, state.time, state.steps)
-            .map_err(|e| RestoreError(format!("does not fit this scene: {e}")))?;
-        Ok(())
-    }
-}
-
-/// Folds the mirrored ghost layers of `grid` (and of the momentum without forces `momentum0`)
-/// into their mirror nodes after P2G; `gravity_impulse` is `Δt g` (m/s).
-fn fold_ghosts<const D: usize>(
-    mirror: &MirrorWalls<D>,
-    layout: &NodeLayout<D>,
-    grid: &mut GridNodes<D>,
-    momentum0: Option<&mut Vec<Vector<D>>>,
-    gravity_impulse: Vector<D>,
-) {
-    let mut channels = vec![(grid.momentum.as_mut_slice(), Some(gravity_impulse))];
-    if let Some(p0) = momentum0 {
-        channels.push((p0.as_mut_slice(), None));
-    }
-    mirror.fold(layout, &mut grid.mass, &mut channels);
-}
-
-/// Gives the ghost nodes of `grid` (and the pre-update velocities `velocity0`) the reflected
-/// velocities of their mirror nodes after the boundaries.
-fn fill_ghosts<const D: usize>(
-    mirror: &MirrorWalls<D>,
-    layout: &NodeLayout<D>,
-    grid: &mut GridNodes<D>,
-    velocity0: Option<&mut Vec<Vector<D>>>,
-) {
-    mirror.fill(layout, &mut grid.velocity);
-    if let Some(v0) = velocity0 {
-        mirror.fill(layout, v0);
     }
 }
 
