@@ -2,7 +2,7 @@
 //! column collapses in a 1 m × 1 m box with free-slip walls. Prints the front, the fluid volume
 //! (which the position correction keeps) and the pressure solver's work every 0.1 s.
 //!
-//! Run with `cargo run --release -p mpm-diq --example dam_break`.
+//! Run with `cargo run --release -p mpm-diq --example water_column`.
 
 use mpm_core::prelude::*;
 use mpm_diq::{DiqFluid, DiqParams};
