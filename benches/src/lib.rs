@@ -241,7 +241,7 @@ pub struct Memory {
     /// Number of particles.
     pub particles: usize,
     /// Particle storage per particle for the columns that exist
-    /// ([`Particles::bytes_per_particle`]).
+    /// ([`mpm_core::Particles::bytes_per_particle`]).
     pub particle_bytes: usize,
     /// Solver scratch that grows with the particle count, per particle (see [`memory`]).
     pub scratch_bytes: usize,

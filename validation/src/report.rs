@@ -75,7 +75,7 @@ pub struct CaseResult {
 pub enum Outcome {
     /// Finished with bounded energy.
     Stable,
-    /// The solver stopped with an [`Instability`] error.
+    /// The solver stopped with an [`mpm_core::Instability`] error.
     Stopped,
     /// Finished (or produced non-finite diagnostics) with the energy grown beyond the bound.
     BlewUp,

@@ -5,8 +5,8 @@ use crate::math::{Angular, Dim, DimOps, Real, Vector};
 use crate::particles::Particles;
 use serde::Serialize;
 
-/// Totals over all particles.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+/// Totals over all particles, and the energy terms a solver adds of its own.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Diagnostics<const D: usize> {
     /// Total mass (kg).
     pub mass: Real,
@@ -21,9 +21,10 @@ pub struct Diagnostics<const D: usize> {
     pub elastic_energy: Real,
     /// Gravitational potential energy −Σ m g·x (J), zero when `gravity` is zero.
     pub potential_energy: Real,
-    /// Potential energy of penalty contact springs (J): zero from [`Diagnostics::compute`];
-    /// solvers with penalty contact (TLMPM's Eq. 4) set it.
-    pub contact_energy: Real,
+    /// Energy terms only some solvers have, by name (J): none from [`Diagnostics::compute`];
+    /// a solver declares its own with [`Diagnostics::with_energy`] (TLMPM's penalty contact
+    /// adds the potential of its springs as `contact`). They count in [`Self::total_energy`].
+    pub other_energies: Vec<(&'static str, Real)>,
 }
 
 impl<const D: usize> Diagnostics<D> {
@@ -47,7 +48,7 @@ impl<const D: usize> Diagnostics<D> {
             kinetic_energy: 0.0,
             elastic_energy: 0.0,
             potential_energy: 0.0,
-            contact_energy: 0.0,
+            other_energies: Vec::new(),
         };
         for p in 0..particles.len() {
             let (m, x, v) = (particles.mass[p], particles.x[p], particles.v[p]);
@@ -75,8 +76,28 @@ impl<const D: usize> Diagnostics<D> {
         d
     }
 
-    /// Total mechanical energy: kinetic + elastic + potential + contact (J).
+    /// The same totals with the energy term `name` (J) added (or replaced).
+    pub fn with_energy(mut self, name: &'static str, value: Real) -> Self {
+        match self.other_energies.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, v)) => *v = value,
+            None => self.other_energies.push((name, value)),
+        }
+        self
+    }
+
+    /// The energy term `name` (J); zero when the solver has none.
+    pub fn energy(&self, name: &str) -> Real {
+        self.other_energies
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map_or(0.0, |(_, v)| *v)
+    }
+
+    /// Total mechanical energy: kinetic + elastic + potential + the solver's own terms (J).
     pub fn total_energy(&self) -> Real {
-        self.kinetic_energy + self.elastic_energy + self.potential_energy + self.contact_energy
+        self.other_energies.iter().fold(
+            self.kinetic_energy + self.elastic_energy + self.potential_energy,
+            |e, (_, v)| e + v,
+        )
     }
 }

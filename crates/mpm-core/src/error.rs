@@ -6,88 +6,38 @@ use thiserror::Error;
 
 /// A stage of a step: the id under which its wall time is recorded, the id of the entry in a
 /// solver's [`crate::solver::StagePlan`], and the stage named when a guard check or a solve
-/// fails in it. Each solver runs a subset; [`Stage::name`] is the text used in timing tables,
-/// `summary.json` and error messages.
+/// fails in it; [`Stage::name`] is the text used in timing tables, `summary.json` and error
+/// messages. Each solver declares the stages it runs: the ones most MPM steps share are the
+/// associated constants here, and a solver declares its own as constants of its crate
+/// (`pub const CONTACT: Stage = Stage::new("contact");`), so a new solver edits nothing here.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Stage {
-    /// Caching the reference configuration (TLMPM: weights, gradients, connectivity, sparsity
-    /// pattern and symbolic factorisation), at set-up.
-    Reference,
-    /// Time-step selection.
-    TimeStep,
-    /// Binning particles into grid blocks for the deterministic scatter.
-    Sort,
-    /// Volume re-estimation from the grid density.
-    Volume,
-    /// Concentration diffusion (miscible mixing).
-    Diffusion,
-    /// Particle-to-grid transfer.
-    P2G,
-    /// Grid velocity update (and, on a single grid, boundary conditions).
-    GridUpdate,
-    /// External nodal forces (gravity, applied loads).
-    ExternalForces,
-    /// Particle contact forces.
-    Contact,
-    /// Coupling between phase grids, then boundary conditions on every phase grid.
-    Coupling,
-    /// A grid solve: Newton's method (implicit), the explicit node update, or the pressure
-    /// projection (DIQ).
-    Solve,
-    /// Grid-to-particle transfer, deformation update and advection.
-    G2P,
-    /// Volume-preserving particle position correction (DIQ fluid, Kugelstadt et al. 2019).
-    PositionCorrection,
-    /// Writing accepted particle updates.
-    Commit,
-    /// A-ULMPM reference configuration update.
-    ReferenceUpdate,
-}
+pub struct Stage(&'static str);
 
 impl Stage {
-    /// Every stage, in the order a step would run them.
-    pub const ALL: [Stage; 15] = [
-        Stage::Reference,
-        Stage::TimeStep,
-        Stage::Sort,
-        Stage::Volume,
-        Stage::Diffusion,
-        Stage::P2G,
-        Stage::GridUpdate,
-        Stage::ExternalForces,
-        Stage::Contact,
-        Stage::Coupling,
-        Stage::Solve,
-        Stage::G2P,
-        Stage::PositionCorrection,
-        Stage::Commit,
-        Stage::ReferenceUpdate,
-    ];
+    /// The stage called `name` (lower-case words joined by `_`, e.g. `position_correction`).
+    pub const fn new(name: &'static str) -> Self {
+        Self(name)
+    }
+
+    /// Time-step selection.
+    pub const TIME_STEP: Stage = Stage("time_step");
+    /// Binning particles into grid blocks or cells.
+    pub const SORT: Stage = Stage("sort");
+    /// Particle-to-grid transfer.
+    pub const P2G: Stage = Stage("p2g");
+    /// Grid velocity update (and, on a single grid, boundary conditions).
+    pub const GRID_UPDATE: Stage = Stage("grid_update");
+    /// A grid solve: Newton's method (implicit), the explicit node update, or the pressure
+    /// projection.
+    pub const SOLVE: Stage = Stage("solve");
+    /// Grid-to-particle transfer, deformation update and advection.
+    pub const G2P: Stage = Stage("g2p");
+    /// Writing accepted particle updates.
+    pub const COMMIT: Stage = Stage("commit");
 
     /// The stage's id in timing tables, `summary.json` and messages.
     pub fn name(self) -> &'static str {
-        match self {
-            Stage::Reference => "reference",
-            Stage::TimeStep => "time_step",
-            Stage::Sort => "sort",
-            Stage::Volume => "volume",
-            Stage::Diffusion => "diffusion",
-            Stage::P2G => "p2g",
-            Stage::GridUpdate => "grid_update",
-            Stage::ExternalForces => "external_forces",
-            Stage::Contact => "contact",
-            Stage::Coupling => "coupling",
-            Stage::Solve => "solve",
-            Stage::G2P => "g2p",
-            Stage::PositionCorrection => "position_correction",
-            Stage::Commit => "commit",
-            Stage::ReferenceUpdate => "reference_update",
-        }
-    }
-
-    /// Position in [`Stage::ALL`].
-    pub fn index(self) -> usize {
-        self as usize
+        self.0
     }
 }
 

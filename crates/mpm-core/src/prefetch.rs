@@ -18,7 +18,7 @@
 const LINE: usize = 64;
 
 /// Hints that `value` will be read soon: prefetches, into every cache level, each cache line
-/// that `value` occupies ([`offsets`]).
+/// that `value` occupies (`offsets`).
 #[inline(always)]
 pub fn read<T>(value: &T) {
     let start = (value as *const T).cast::<i8>();

@@ -58,5 +58,6 @@ pub use pressure::{
 
 #[cfg(test)]
 mod coupled_tests;
+pub mod stages;
 #[cfg(test)]
 mod tests;

@@ -2,7 +2,7 @@
 //! fused MLS stress term, grid update with gravity and boundaries, G2P with APIC (default), PIC or
 //! FLIP blending, plasticity return mapping and fluid J update, then advection.
 //!
-//! A step is a short list of named stages (see [`ExplicitSolver::step`]): sort → (volume
+//! A step is a short list of named stages (see [`mpm_core::Solver::step`]): sort → (volume
 //! re-estimation) → P2G → grid update → G2P with guard checks → commit. P2G is parallel and
 //! deterministic: results are bitwise identical for any number of rayon threads.
 //!
@@ -46,6 +46,7 @@ mod p2g;
 mod params;
 mod plan;
 mod solver;
+pub mod stages;
 mod validate;
 
 pub use advice::{too_compressible, TooCompressible};

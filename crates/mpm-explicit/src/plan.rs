@@ -21,12 +21,12 @@ where
     let p = solver.params();
     let mut plan = StagePlan::default();
     plan.push(
-        Stage::TimeStep,
+        Stage::TIME_STEP,
         p.time_step.describe("dx / max(|v| + c), viscous limit"),
     );
     let b = mpm_core::NodeLayout::<D>::BLOCK;
     plan.push(
-        Stage::Sort,
+        Stage::SORT,
         format!(
             "bin particles into grid blocks; sparse grid: only the {b}^{D}-node blocks the \
              particles reach are stored"
@@ -39,7 +39,7 @@ where
             .filter(|m| matches!(m, Material::Fluid(_)))
             .count();
         plan.push(
-            Stage::Volume,
+            crate::stages::VOLUME,
             format!("volume re-estimation: J of {fluids} fluid material(s) from the grid density"),
         );
     }
@@ -49,7 +49,7 @@ where
             DiffusionScheme::MlsDifference => "MLS difference, Eqs. 34-35",
         };
         plan.push(
-            Stage::Diffusion,
+            crate::stages::DIFFUSION,
             format!(
                 "diffusion of materials {} and {} (k_d = {} m^2/s, {scheme})",
                 m.fluids[0], m.fluids[1], m.diffusivity
@@ -82,7 +82,7 @@ where
     if !solver.multigrid() {
         forces += &format!("; boundaries: {boundaries}");
     }
-    plan.push(Stage::GridUpdate, forces);
+    plan.push(Stage::GRID_UPDATE, forces);
     if solver.multigrid() {
         let mut parts = Vec::new();
         for (k, n) in needs.iter().enumerate() {
@@ -121,7 +121,7 @@ where
             }
         }
         parts.push(format!("boundaries on every phase grid: {boundaries}"));
-        plan.push(Stage::Coupling, parts.join("; "));
+        plan.push(crate::stages::COUPLING, parts.join("; "));
     }
     let mut g2p = "velocity, affine C, F or J update, advection".to_string();
     let plastic: Vec<String> = (0..solver.materials().len())
@@ -160,7 +160,7 @@ where
     plan.push(Stage::G2P, g2p);
     if solver.has_extra_state() {
         plan.push(
-            Stage::Commit,
+            Stage::COMMIT,
             "write the checked volume fractions, concentrations and dissolution",
         );
     }

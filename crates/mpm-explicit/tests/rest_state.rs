@@ -179,7 +179,7 @@ fn mirrored_walls_give_the_bottom_layer_its_hydrostatic_pressure() {
             .plan()
             .stages
             .iter()
-            .find(|s| s.stage == Stage::GridUpdate)
+            .find(|s| s.stage == Stage::GRID_UPDATE)
             .cloned();
         let detail = update.map(|s| s.detail).unwrap_or_default();
         assert_eq!(

@@ -52,7 +52,7 @@ where
     sync_dir(parent_dir(path))
 }
 
-/// Writes `bytes` to `path` atomically (see [`replace_atomically`]): a reader, or a process killed
+/// Writes `bytes` to `path` atomically (temporary file, fsync, rename): a reader, or a process killed
 /// while writing, sees either the old file or the complete new one, never a truncated file.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     replace_atomically(path, |tmp| {

@@ -81,6 +81,10 @@ impl<const D: usize> Obstacle<D> {
     }
 }
 
+/// The name of the penalty springs' potential among the solver's energy terms
+/// ([`mpm_core::Diagnostics::other_energies`]).
+pub const CONTACT_ENERGY: &str = "contact";
+
 /// What a contact pass found.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactStats {

@@ -45,7 +45,7 @@ where
         let t = Instant::now();
         let core = Core::new(spec, params, materials, particles)?;
         let mut stats = StageTimes::default();
-        stats.add(Stage::Reference, t.elapsed());
+        stats.add(crate::stages::REFERENCE, t.elapsed());
         Ok(Self {
             core,
             stats,
@@ -61,7 +61,7 @@ where
         let core = &self.core;
         let dt0 = self
             .stats
-            .time(Stage::TimeStep, || core.choose_dt(true))
+            .time(Stage::TIME_STEP, || core.choose_dt(true))
             .map_err(|f| start.error(f, 0.0, 0))?;
         let (stress, stats) = (&mut self.stress, &mut self.stats);
         let (contact, dt, retries) = self
@@ -70,7 +70,7 @@ where
         let core = &mut self.core;
         let reference_updated = self
             .stats
-            .time(Stage::ReferenceUpdate, || core.reference_update())
+            .time(crate::stages::REFERENCE_UPDATE, || core.reference_update())
             .map_err(|f| start.error(f, dt, retries))?;
         self.last_contact = contact;
         Ok(step_info(
@@ -123,14 +123,14 @@ where
     Dim<D>: DimOps<D>,
 {
     stats.time(Stage::P2G, || core.momentum_to_grid());
-    stats.time(Stage::ExternalForces, || core.external_forces());
-    let contact = stats.time(Stage::Contact, || core.contact(dt));
-    stats.time(Stage::Solve, || {
+    stats.time(crate::stages::EXTERNAL_FORCES, || core.external_forces());
+    let contact = stats.time(crate::stages::CONTACT, || core.contact(dt));
+    stats.time(Stage::SOLVE, || {
         update_grid(core, stress, dt);
         core.check_displacements()
     })?;
     stats.time(Stage::G2P, || core.grid_to_particles(dt))?;
-    stats.time(Stage::Commit, || core.commit(dt));
+    stats.time(Stage::COMMIT, || core.commit(dt));
     Ok(contact)
 }
 

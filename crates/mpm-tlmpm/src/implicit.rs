@@ -154,7 +154,7 @@ where
                 },
             })?;
         }
-        solver.stats.add(Stage::Reference, t.elapsed());
+        solver.stats.add(crate::stages::REFERENCE, t.elapsed());
         Ok(solver)
     }
 
@@ -181,12 +181,12 @@ where
         let start = self.core.start();
         if self.implicit.linear == LinearSolver::Cholesky {
             self.analyse()
-                .map_err(|e| start.error(Failure::Solve(Stage::Solve, linear_error(e)), 0.0, 0))?;
+                .map_err(|e| start.error(Failure::Solve(Stage::SOLVE, linear_error(e)), 0.0, 0))?;
         }
         let core = &self.core;
         let dt0 = self
             .stats
-            .time(Stage::TimeStep, || core.choose_dt(false))
+            .time(Stage::TIME_STEP, || core.choose_dt(false))
             .map_err(|f| start.error(f, 0.0, 0))?;
         let (ws, stats, times, implicit) = (
             &mut self.ws,
@@ -200,7 +200,7 @@ where
         let core = &mut self.core;
         let reference_updated = self
             .stats
-            .time(Stage::ReferenceUpdate, || core.reference_update())
+            .time(crate::stages::REFERENCE_UPDATE, || core.reference_update())
             .map_err(|f| start.error(f, dt, retries))?;
         if reference_updated {
             self.ws.objective.sparse = None;
@@ -356,7 +356,7 @@ where
 {
     let (newton, contact) = predict(core, ws, stats, times, implicit, dt)?;
     stats.time(Stage::G2P, || core.grid_to_particles(dt))?;
-    stats.time(Stage::Commit, || core.commit(dt));
+    stats.time(Stage::COMMIT, || core.commit(dt));
     Ok((newton, contact))
 }
 
@@ -373,9 +373,9 @@ where
     Dim<D>: DimOps<D>,
 {
     stats.time(Stage::P2G, || core.momentum_to_grid());
-    stats.time(Stage::ExternalForces, || core.external_forces());
-    let contact = stats.time(Stage::Contact, || core.contact(dt));
-    let newton = stats.time(Stage::Solve, || {
+    stats.time(crate::stages::EXTERNAL_FORCES, || core.external_forces());
+    let contact = stats.time(crate::stages::CONTACT, || core.contact(dt));
+    let newton = stats.time(Stage::SOLVE, || {
         solve_grid(core, ws, times, implicit, dt, None)
     })?;
     Ok((newton, contact))
@@ -440,11 +440,11 @@ where
             *u = constraints.displacement(i, Vector::<D>::zeros(), dt);
         }
         if problem.energy(displacement).is_none() {
-            return Err(Failure::Guard(Stage::Solve, problem.first_bad_particle()));
+            return Err(Failure::Guard(Stage::SOLVE, problem.first_bad_particle()));
         }
     }
     let info = minimize(&mut problem, &implicit.newton, displacement, &mut ws.newton)
-        .map_err(|e| Failure::Solve(Stage::Solve, e))?;
+        .map_err(|e| Failure::Solve(Stage::SOLVE, e))?;
     core.check_displacements()?;
     end_velocities(core, implicit.scheme, dt);
     Ok(info)
@@ -723,7 +723,7 @@ where
     fn seam_stage_times(&self) -> Vec<StageTime> {
         let mut rows = self.stats.rows(&self.stage_plan());
         let n = &self.newton_times;
-        if let Some(solve) = rows.iter_mut().find(|r| r.stage == Stage::Solve) {
+        if let Some(solve) = rows.iter_mut().find(|r| r.stage == Stage::SOLVE) {
             solve.parts = vec![
                 ("energy", n.energy.as_secs_f64()),
                 ("gradient", n.gradient.as_secs_f64()),

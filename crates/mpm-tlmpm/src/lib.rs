@@ -96,10 +96,13 @@ mod newton;
 mod params;
 mod potential;
 mod reference;
+pub mod stages;
 mod transfer;
 
 pub use crate::core::{build, NewtonTimes, TlmpmState, TotalLagrangian};
-pub use contact::{ContactInput, ContactRadius, ContactStats, Obstacle, ParticleContact};
+pub use contact::{
+    ContactInput, ContactRadius, ContactStats, Obstacle, ParticleContact, CONTACT_ENERGY,
+};
 pub use error::{NewtonError, StepError};
 pub use explicit::ExplicitTlmpm;
 pub use implicit::{ImplicitTlmpm, Predicted, Projected, Transferred};

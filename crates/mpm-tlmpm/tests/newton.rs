@@ -392,7 +392,7 @@ fn guards_and_retries() {
     println!("{err}");
     match &err {
         StepError::Solve {
-            stage: Stage::Solve,
+            stage: Stage::SOLVE,
             source,
             ..
         } => assert!(

@@ -256,7 +256,7 @@ where
             series: Vec::new(),
             snapshot_schedule: Schedule::new(sc.output.interval),
             checkpoint_schedule: sc.checkpoint.map(|c| (Schedule::new(c.interval), c)),
-            initial,
+            initial: initial.clone(),
             last_good: (0, initial),
             last_snapshot_step: None,
             last_checkpoint_step: None,

@@ -32,8 +32,11 @@ const ATTR_INITIAL_ENERGY_PARTS: [&str; 3] = [
     "initial_elastic_energy",
     "initial_potential_energy",
 ];
-/// Checkpoint attribute of the contact potential at t = 0, written when it is not zero.
-const ATTR_INITIAL_CONTACT_ENERGY: &str = "initial_contact_energy";
+/// Checkpoint attribute of a solver's own energy term `name` at t = 0 (e.g.
+/// `initial_contact_energy`), written when it is not zero.
+fn initial_energy_attr(name: &str) -> String {
+    format!("initial_{name}_energy")
+}
 
 /// Removes the temporary files a killed run leaves in `dir` (`.snap_000042.h5.tmp-PID`, and the
 /// same for checkpoints, `run.xmf` and `summary.json`); returns how many.
@@ -145,7 +148,9 @@ where
                 self.initial.kinetic_energy = p[0];
                 self.initial.elastic_energy = p[1];
                 self.initial.potential_energy = p[2];
-                self.initial.contact_energy = attr(ATTR_INITIAL_CONTACT_ENERGY).unwrap_or(0.0);
+                for (name, value) in &mut self.initial.other_energies {
+                    *value = attr(&initial_energy_attr(name)).unwrap_or(0.0);
+                }
             }
         }
         for m in &mut self.monitors {
@@ -277,8 +282,10 @@ where
         ]) {
             attrs.push((n.to_string(), v));
         }
-        if i.contact_energy != 0.0 {
-            attrs.push((ATTR_INITIAL_CONTACT_ENERGY.to_string(), i.contact_energy));
+        for (name, value) in &i.other_energies {
+            if *value != 0.0 {
+                attrs.push((initial_energy_attr(name), *value));
+            }
         }
         for m in &self.monitors {
             attrs.push((format!("{ATTR_INITIAL_MONITOR}{}", m.name), m.initial));

@@ -5,7 +5,7 @@ use super::signals::signal_name;
 use super::{checkpoint_name, Runner};
 use crate::error::CliError;
 use mpm_core::solver::StageTime;
-use mpm_core::{Dim, DimOps};
+use mpm_core::{Diagnostics, Dim, DimOps};
 use serde_json::json;
 
 /// One monitor of the solver over a run.
@@ -155,7 +155,7 @@ where
     /// last snapshot's state after a failure), and their drifts.
     fn conservation_json(&self, failure: Option<&CliError>) -> serde_json::Value {
         let (final_step, fin) = match failure {
-            Some(_) => self.last_good,
+            Some(_) => self.last_good.clone(),
             None => (self.solver.steps(), self.solver.diagnostics()),
         };
         let ini = &self.initial;
@@ -201,14 +201,8 @@ where
             "energy": {
                 "initial": ini.total_energy(), "final": fin.total_energy(),
                 "drift": e_abs, "relative_drift": rel(e_abs, ini.total_energy().abs()),
-                "initial_parts": {
-                    "kinetic": ini.kinetic_energy, "elastic": ini.elastic_energy,
-                    "potential": ini.potential_energy, "contact": ini.contact_energy,
-                },
-                "final_parts": {
-                    "kinetic": fin.kinetic_energy, "elastic": fin.elastic_energy,
-                    "potential": fin.potential_energy, "contact": fin.contact_energy,
-                },
+                "initial_parts": energy_parts(ini),
+                "final_parts": energy_parts(&fin),
             },
         })
     }
@@ -310,4 +304,17 @@ impl ResidualLog {
             "steps": steps,
         })
     }
+}
+
+/// The energy parts of `d` (J): kinetic, elastic, potential, then the terms the solver declares
+/// of its own (e.g. TLMPM's `contact`), by name.
+fn energy_parts<const D: usize>(d: &Diagnostics<D>) -> serde_json::Value {
+    let mut parts = serde_json::Map::new();
+    parts.insert("kinetic".into(), json!(d.kinetic_energy));
+    parts.insert("elastic".into(), json!(d.elastic_energy));
+    parts.insert("potential".into(), json!(d.potential_energy));
+    for (name, value) in &d.other_energies {
+        parts.insert((*name).into(), json!(value));
+    }
+    serde_json::Value::Object(parts)
 }

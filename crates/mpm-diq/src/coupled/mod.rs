@@ -283,17 +283,17 @@ where
         let mut plan = StagePlan::default();
         let fluid = self.has_fluid();
         plan.push(
-            Stage::Reference,
+            mpm_tlmpm::stages::REFERENCE,
             "at set-up: the solids' reference weights, gradients and node masses",
         );
         plan.push(
-            Stage::TimeStep,
+            Stage::TIME_STEP,
             self.params
                 .time_step
                 .describe("Δx / max(|v| + |g| dt) over fluid and solid particles"),
         );
         if fluid {
-            plan.push(Stage::Sort, "bin fluid particles by cell");
+            plan.push(Stage::SORT, "bin fluid particles by cell");
         }
         plan.push(
             Stage::P2G,
@@ -305,14 +305,14 @@ where
         );
         if fluid {
             plan.push(
-                Stage::GridUpdate,
+                Stage::GRID_UPDATE,
                 format!("fluid {}", self.fluid.predictor_plan()),
             );
         }
-        plan.push(Stage::ExternalForces, "solid: gravity");
+        plan.push(mpm_tlmpm::stages::EXTERNAL_FORCES, "solid: gravity");
         if let Some(c) = &self.solid_params.tlmpm.contact {
             plan.push(
-                Stage::Contact,
+                mpm_tlmpm::stages::CONTACT,
                 format!(
                     "solid: Eq. 4 particle pairs, radius {:?}; {} wall/collider obstacle(s)",
                     c.radius,
@@ -321,11 +321,11 @@ where
             );
         }
         plan.push(
-            Stage::Solve,
+            Stage::SOLVE,
             "solid: Newton elastic solve on the backward-Euler potential of Ψ^s (V*)",
         );
         plan.push(
-            Stage::Coupling,
+            crate::stages::COUPLING,
             format!(
                 "{}coupled pressure-only system (Eq. 35) by {}",
                 match (fluid, self.solid_params.interface) {
@@ -350,12 +350,12 @@ where
         );
         if fluid && self.params.position_correction {
             plan.push(
-                Stage::PositionCorrection,
+                crate::stages::POSITION_CORRECTION,
                 "fluid: volume-preserving position correction",
             );
         }
         plan.push(
-            Stage::Commit,
+            Stage::COMMIT,
             if self.plastic.contains(&true) {
                 "write checked updates; P^s to particles, J^s remapped, plastic P^s scaled with \
                  the return mapping's det F_E / det F_E^trial"
@@ -365,7 +365,7 @@ where
         );
         if let Some(r) = &self.solid_params.tlmpm.reference_update {
             plan.push(
-                Stage::ReferenceUpdate,
+                mpm_tlmpm::stages::REFERENCE_UPDATE,
                 format!("A-ULMPM trigger: epsilon = {}, eta = {}", r.epsilon, r.eta),
             );
         }
@@ -451,9 +451,9 @@ where
         };
         let t0 = std::time::Instant::now();
         let stable = self.bound();
-        self.times.add(Stage::TimeStep, t0.elapsed());
+        self.times.add(Stage::TIME_STEP, t0.elapsed());
         let dt0 = choose_dt(&self.params.time_step, stable)
-            .map_err(|e| start.error(Failure::Guard(Stage::TimeStep, e), 0.0, 0))?;
+            .map_err(|e| start.error(Failure::Guard(Stage::TIME_STEP, e), 0.0, 0))?;
         let (pending, dt, retries) = retry_halving(self.params.on_instability, start, dt0, |dt| {
             self.attempt(dt)
         })?;

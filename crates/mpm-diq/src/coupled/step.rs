@@ -42,7 +42,7 @@ where
         dt: Real,
         times: &mut StageTimes,
     ) -> Result<Pending<D>, Failure<CoupledError>> {
-        let (iq, points) = times.time(Stage::Coupling, || {
+        let (iq, points) = times.time(crate::stages::COUPLING, || {
             let iq = self.interface_points();
             let points = self.fluid_points(&iq);
             (iq, points)
@@ -54,7 +54,7 @@ where
         let predicted = self.solid.elastic_predictor(dt).map_err(lift)?;
         let contact = predicted.contact();
         let v_solid = self.solid.node_velocities(&predicted);
-        let (rows, inv_mass, u, volumes) = times.time(Stage::Coupling, || {
+        let (rows, inv_mass, u, volumes) = times.time(crate::stages::COUPLING, || {
             self.coupled_rows((&points, &iq), &nodes, &bins, &v_solid, dt)
         });
         let mut system = std::mem::take(&mut self.projection);
@@ -143,7 +143,7 @@ where
         system: &mut PressureSystem<D>,
         times: &mut StageTimes,
     ) -> Result<(Vec<Real>, Vec<Vector<D>>, PressureInfo, SolveInfo), Failure<CoupledError>> {
-        let stage = Stage::Coupling;
+        let stage = crate::stages::COUPLING;
         let dt = predicted.dt();
         let fluid = &self.fluid;
         times
@@ -282,7 +282,7 @@ where
         let mut solves = Vec::new();
         if self.params.position_correction {
             if let Some(c) = times
-                .time(Stage::PositionCorrection, || {
+                .time(crate::stages::POSITION_CORRECTION, || {
                     // With the node rows the fluid ends at the cell staircase, which the
                     // solid volume spread to nodes overlaps: counted, it marks the fluid
                     // cells along a resting solid as overfull every step, and the pushes

@@ -167,9 +167,9 @@ fn solids_only_plan_has_no_fluid_stage() {
     .unwrap();
     let plan = s.plan().ids();
     for stage in [
-        mpm_core::Stage::Sort,
-        mpm_core::Stage::GridUpdate,
-        mpm_core::Stage::PositionCorrection,
+        mpm_core::Stage::SORT,
+        mpm_core::Stage::GRID_UPDATE,
+        crate::stages::POSITION_CORRECTION,
     ] {
         assert!(!plan.contains(&stage), "{stage:?} in a solids-only plan");
     }

@@ -5,7 +5,7 @@
 use super::{DiqFluid, NodeFields, Points, CLAMP_MARGIN};
 use crate::domain::{corner_weights, Domain};
 use crate::pressure::{PressureError, PressureInfo, PressureSystem};
-use mpm_core::{Dim, DimOps, Failure, Matrix, Real, Stage, Vector};
+use mpm_core::{Dim, DimOps, Failure, Matrix, Real, Vector};
 use rayon::prelude::*;
 
 impl<const D: usize> DiqFluid<D>
@@ -66,7 +66,7 @@ where
             dt,
             &mut d,
             system,
-            Stage::PositionCorrection,
+            crate::stages::POSITION_CORRECTION,
         )?;
         let dx = self.domain.spec.dx;
         x.par_iter_mut().for_each(|xp| {

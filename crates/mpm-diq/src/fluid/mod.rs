@@ -313,15 +313,15 @@ where
     fn make_plan(&self) -> StagePlan {
         let mut plan = StagePlan::default();
         plan.push(
-            Stage::TimeStep,
+            Stage::TIME_STEP,
             self.params.time_step.describe("Δx / max(|v| + |g| dt)"),
         );
-        plan.push(Stage::Sort, "bin particles by cell");
+        plan.push(Stage::SORT, "bin particles by cell");
         plan.push(
             Stage::P2G,
             "APIC to linear B-spline (B1) nodes: lumped mass M^f, momentum",
         );
-        plan.push(Stage::GridUpdate, self.predictor_plan());
+        plan.push(Stage::GRID_UPDATE, self.predictor_plan());
         let walls = match (self.domain.walls, self.domain.colliders.len()) {
             (true, 0) => "slip walls".to_string(),
             (true, k) => format!("slip walls and {k} collider(s)"),
@@ -329,7 +329,7 @@ where
             (false, k) => format!("{k} collider(s)"),
         };
         plan.push(
-            Stage::Solve,
+            Stage::SOLVE,
             format!(
                 "pressure-only SPD system (B0 fluid pressures, boundary pressures on {walls}): {}, rel. tol {:e}",
                 self.params.pressure.method.describe(),
@@ -342,7 +342,7 @@ where
         );
         if self.params.position_correction {
             plan.push(
-                Stage::PositionCorrection,
+                crate::stages::POSITION_CORRECTION,
                 "volume-preserving position correction (Kugelstadt et al. 2019)",
             );
         }

@@ -171,7 +171,7 @@ where
             dt,
             &mut nodes.velocity,
             system,
-            Stage::Solve,
+            Stage::SOLVE,
         )?;
         Ok((
             self.cell_fields(&rows, &lambda, &nodes.velocity, &volumes),

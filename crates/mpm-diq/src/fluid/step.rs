@@ -72,7 +72,7 @@ where
         times: &mut StageTimes,
     ) -> Result<Attempt<D>, Failure<PressureError>> {
         let (bins, mut nodes) = self.predictor(dt, times)?;
-        let (fields, info) = times.time(Stage::Solve, || {
+        let (fields, info) = times.time(Stage::SOLVE, || {
             self.project(&mut nodes, &bins, dt, projection)
         })?;
         self.finish(&nodes, &bins, fields, &info, dt, correction, times)
@@ -94,10 +94,10 @@ where
         dt: Real,
         times: &mut StageTimes,
     ) -> Result<(Bins, NodeFields<D>), Failure<PressureError>> {
-        let bins = times.time(Stage::Sort, || self.bin(points.x));
+        let bins = times.time(Stage::SORT, || self.bin(points.x));
         let mut nodes = times.time(Stage::P2G, || self.transfer(points, &bins, true));
-        times.time(Stage::GridUpdate, || self.predict(&mut nodes, dt))?;
-        nodes.viscous = times.time(Stage::GridUpdate, || self.viscous(&bins, &mut nodes, dt))?;
+        times.time(Stage::GRID_UPDATE, || self.predict(&mut nodes, dt))?;
+        nodes.viscous = times.time(Stage::GRID_UPDATE, || self.viscous(&bins, &mut nodes, dt))?;
         Ok((bins, nodes))
     }
 
@@ -113,7 +113,7 @@ where
                 *v = *v * im + g * dt;
                 if !v.iter().all(|c| c.is_finite()) {
                     return Err(Failure::Guard(
-                        Stage::GridUpdate,
+                        Stage::GRID_UPDATE,
                         (
                             Location::Node(n),
                             Violation::NonFinite("node velocity"),
@@ -151,7 +151,7 @@ where
         system
             .solve(&mut nodes.velocity, (p.rel_tol, p.max_iterations))
             .map(Some)
-            .map_err(|e| Failure::Solve(Stage::GridUpdate, e))
+            .map_err(|e| Failure::Solve(Stage::GRID_UPDATE, e))
     }
 
     /// The stages of an attempt after the projection: G2P and the position correction, with
@@ -180,7 +180,7 @@ where
             events.push(("pressure_pattern_reused", 1));
         }
         if self.params.position_correction {
-            if let Some(c) = times.time(Stage::PositionCorrection, || {
+            if let Some(c) = times.time(crate::stages::POSITION_CORRECTION, || {
                 self.correct_positions(&mut x, dt, correction, &[])
             })? {
                 solves.push(SolveInfo {
@@ -228,9 +228,9 @@ where
         };
         let t0 = std::time::Instant::now();
         let stable = self.displacement_dt(self.cfl());
-        self.times.add(Stage::TimeStep, t0.elapsed());
+        self.times.add(Stage::TIME_STEP, t0.elapsed());
         let dt0 = choose_dt(&self.params.time_step, stable).map_err(|e| {
-            start.error(Failure::<PressureError>::Guard(Stage::TimeStep, e), 0.0, 0)
+            start.error(Failure::<PressureError>::Guard(Stage::TIME_STEP, e), 0.0, 0)
         })?;
         let mut projection = std::mem::take(&mut self.projection);
         let mut correction = std::mem::take(&mut self.correction);

@@ -178,7 +178,7 @@ fn capped_cg_is_a_typed_solve_error() {
     let x0 = fluid.particles().x.clone();
     match fluid.step() {
         Err(StepError::Solve { stage, source, .. }) => {
-            assert_eq!(stage, mpm_core::Stage::Solve);
+            assert_eq!(stage, mpm_core::Stage::SOLVE);
             assert!(source.to_string().contains("did not converge"), "{source}");
         }
         other => panic!("expected a solve error, got {other:?}"),

@@ -223,8 +223,8 @@ where
         };
         let t = Instant::now();
         let dt0 = self.choose_dt();
-        self.stats.add(Stage::TimeStep, t.elapsed());
-        let dt0 = dt0.map_err(|e| start.error(Failure::Guard(Stage::TimeStep, e), 0.0, 0))?;
+        self.stats.add(Stage::TIME_STEP, t.elapsed());
+        let dt0 = dt0.map_err(|e| start.error(Failure::Guard(Stage::TIME_STEP, e), 0.0, 0))?;
         let policy = self.params.on_instability;
         let (_, dt, retries) = retry_halving(policy, start, dt0, |dt| self.attempt(dt))?;
         self.time += dt;
@@ -279,10 +279,10 @@ where
         }
         self.particle_to_grid(dt);
         self.update_grid(dt)
-            .map_err(Failure::guard(Stage::GridUpdate))?;
+            .map_err(Failure::guard(Stage::GRID_UPDATE))?;
         if self.multigrid() {
             self.couple_phases(dt)
-                .map_err(Failure::guard(Stage::Coupling))?;
+                .map_err(Failure::guard(crate::stages::COUPLING))?;
         }
         let signal = self
             .grid_to_particle(dt)
@@ -319,10 +319,10 @@ where
         };
         self.transfer_to_grid(dt);
         self.update_grid(dt)
-            .map_err(|e| start.error(Failure::Guard(Stage::GridUpdate, e), dt, 0))?;
+            .map_err(|e| start.error(Failure::Guard(Stage::GRID_UPDATE, e), dt, 0))?;
         if self.multigrid() {
             self.couple_phases(dt)
-                .map_err(|e| start.error(Failure::Guard(Stage::Coupling, e), dt, 0))?;
+                .map_err(|e| start.error(Failure::Guard(crate::stages::COUPLING, e), dt, 0))?;
         }
         Ok(PreparedG2p { solver: self, dt })
     }

@@ -41,7 +41,7 @@ where
             m.mark(&mut ws.layout);
         }
         ws.layout.finish();
-        self.stats.add(Stage::Sort, t.elapsed());
+        self.stats.add(Stage::SORT, t.elapsed());
     }
 
     /// Stage (optional): re-estimates fluid volumes from the grid density.
@@ -75,7 +75,7 @@ where
                 }
             });
         }
-        self.stats.add(Stage::Volume, t.elapsed());
+        self.stats.add(crate::stages::VOLUME, t.elapsed());
     }
 
     /// Stage (mixing only): diffuses the concentration of the mixing fluids over a step of
@@ -99,7 +99,7 @@ where
             &mut self.ws.mixing,
             dt,
         );
-        self.stats.add(Stage::Diffusion, t.elapsed());
+        self.stats.add(crate::stages::DIFFUSION, t.elapsed());
     }
 
     /// The phase of the mixing fluids (all in one phase, checked at setup).
@@ -197,7 +197,7 @@ where
                 fill_ghosts(m, layout, grid, with0.then_some(v0));
             }
         }
-        self.stats.add(Stage::GridUpdate, t.elapsed());
+        self.stats.add(Stage::GRID_UPDATE, t.elapsed());
         r
     }
 
@@ -241,7 +241,7 @@ where
                 fill_ghosts(m, &ws.layout, grid, with0.then_some(v0));
             }
         }
-        self.stats.add(Stage::Coupling, t.elapsed());
+        self.stats.add(crate::stages::COUPLING, t.elapsed());
         r
     }
 
@@ -305,7 +305,7 @@ where
             self.params.mixing.as_ref(),
             self.params.dissolution.as_ref(),
         );
-        self.stats.add(Stage::Commit, t.elapsed());
+        self.stats.add(Stage::COMMIT, t.elapsed());
     }
 }
 

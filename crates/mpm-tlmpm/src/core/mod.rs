@@ -158,11 +158,11 @@ where
         let p = &self.params;
         let mut plan = StagePlan::default();
         plan.push(
-            Stage::Reference,
+            crate::stages::REFERENCE,
             "at set-up: weights, gradients, connectivity and node masses of the reference \
              configuration",
         );
-        plan.push(Stage::TimeStep, p.time_step.describe(bound));
+        plan.push(Stage::TIME_STEP, p.time_step.describe(bound));
         plan.push(
             Stage::P2G,
             format!(
@@ -182,7 +182,7 @@ where
             ),
         );
         plan.push(
-            Stage::ExternalForces,
+            crate::stages::EXTERNAL_FORCES,
             format!(
                 "gravity {:?} m/s^2{}{}{}",
                 p.gravity.as_slice(),
@@ -209,7 +209,7 @@ where
         );
         if let Some(c) = &p.contact {
             plan.push(
-                Stage::Contact,
+                crate::stages::CONTACT,
                 format!(
                     "Eq. 4 particle pairs, radius {:?}; {} wall/collider obstacle(s), \
                      frictionless penalty",
@@ -218,7 +218,7 @@ where
                 ),
             );
         }
-        plan.push(Stage::Solve, solve);
+        plan.push(Stage::SOLVE, solve);
         plan.push(
             Stage::G2P,
             if self.adaptive.is_some() && Adaptive::<D>::needs_base(&self.materials) {
@@ -227,10 +227,10 @@ where
                 "F update, guard checks"
             },
         );
-        plan.push(Stage::Commit, "write checked updates");
+        plan.push(Stage::COMMIT, "write checked updates");
         if let Some(r) = &p.reference_update {
             plan.push(
-                Stage::ReferenceUpdate,
+                crate::stages::REFERENCE_UPDATE,
                 format!("A-ULMPM trigger: epsilon = {}, eta = {}", r.epsilon, r.eta),
             );
         }
@@ -317,7 +317,7 @@ where
             .position_first(|u| u.iter().any(|c| !c.is_finite()))
         {
             Some(i) => Err(Failure::Guard(
-                Stage::Solve,
+                Stage::SOLVE,
                 (
                     Location::Node(self.reference.grid_index(i)),
                     Violation::NonFinite("grid velocity"),
@@ -395,7 +395,7 @@ where
                 _ => Location::Global,
             };
             Failure::Guard(
-                Stage::ReferenceUpdate,
+                crate::stages::REFERENCE_UPDATE,
                 (p, Violation::LeftDomain, Real::NAN),
             )
         })?;
@@ -494,7 +494,7 @@ where
             TimeStepPolicy::Fixed { .. } => Real::INFINITY,
             TimeStepPolicy::Adaptive { .. } => self.stable_dt(wave),
         };
-        choose_dt(&self.params.time_step, stable).map_err(|e| Failure::Guard(Stage::TimeStep, e))
+        choose_dt(&self.params.time_step, stable).map_err(|e| Failure::Guard(Stage::TIME_STEP, e))
     }
 
     /// Runs `attempt` with `dt0` (s), halving dt after a failure as the policy allows
@@ -533,12 +533,13 @@ where
                 TimeStepPolicy::Fixed { dt } => dt,
                 TimeStepPolicy::Adaptive { dt_max, .. } => stable().min(dt_max),
             };
-            d.contact_energy = stage.energy(
+            let energy = stage.energy(
                 &self.reference,
                 (&self.particles.x, &self.particles.mass),
                 &params.obstacles,
                 dt,
             );
+            d = d.with_energy(crate::contact::CONTACT_ENERGY, energy);
         }
         d
     }

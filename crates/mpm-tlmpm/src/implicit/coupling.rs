@@ -56,7 +56,7 @@ where
     pub fn elastic_predictor(&mut self, dt: Real) -> Result<Predicted, Failure<NewtonError>> {
         if self.implicit.linear == LinearSolver::Cholesky {
             self.analyse()
-                .map_err(|e| Failure::Solve(Stage::Solve, linear_error(e)))?;
+                .map_err(|e| Failure::Solve(Stage::SOLVE, linear_error(e)))?;
         }
         self.ws.objective.factored = false;
         let (core, ws, stats, times) = (
@@ -93,7 +93,7 @@ where
         let chord = ws.objective.factored;
         let implicit = self.implicit;
         let dt = at.dt;
-        self.stats.time(Stage::Solve, || {
+        self.stats.time(Stage::SOLVE, || {
             if chord {
                 let mut params = implicit;
                 params.newton.max_iterations = params.newton.max_iterations.min(CHORD_ITERATIONS);
@@ -153,12 +153,12 @@ where
     /// it is on. Returns whether the reference moved.
     pub fn commit_step(&mut self, at: Transferred) -> Result<bool, Failure<NewtonError>> {
         let core = &mut self.core;
-        self.stats.time(Stage::Commit, || core.commit(at.dt));
+        self.stats.time(Stage::COMMIT, || core.commit(at.dt));
         core.time += at.dt;
         core.steps += 1;
         let updated = self
             .stats
-            .time(Stage::ReferenceUpdate, || core.reference_update())?;
+            .time(crate::stages::REFERENCE_UPDATE, || core.reference_update())?;
         if updated {
             self.ws.objective.sparse = None;
         }

@@ -248,7 +248,7 @@ pub fn fit_step_response(samples: &[(Real, Real)]) -> Option<StepFit> {
     })
 }
 
-/// [`fit_step_response`] on a whole deflection history, strided to at most [`FIT_SAMPLES`]
+/// [`fit_step_response`] on a whole deflection history, strided to at most `FIT_SAMPLES`
 /// samples.
 pub fn fit_history(samples: &[(Real, Real)]) -> Option<StepFit> {
     let stride = samples.len().div_ceil(FIT_SAMPLES);

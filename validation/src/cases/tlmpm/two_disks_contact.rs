@@ -84,7 +84,7 @@ pub(super) fn solver(
     Tlmpm::new(spec, params, ip, materials, particles)
 }
 
-/// One run with grid spacing `dx` (m) of [`solver`] with APIC, implicit (dt = 10⁻³ Δx/0.05 s)
+/// One run with grid spacing `dx` (m) of `solver` with APIC, implicit (dt = 10⁻³ Δx/0.05 s)
 /// or explicit (dt = 2·10⁻⁴ Δx/0.05 s). error = `max(0, 1 − min gap/(r_p + r_q))`; extras
 /// `gap_ratio`, `momentum_drift`, `energy_loss`, `contacts` (pair contacts summed over steps),
 /// `implicit`.
