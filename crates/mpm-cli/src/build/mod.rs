@@ -1,8 +1,8 @@
 //! From a resolved [`Scene`] to a ready-to-run solver (a boxed [`mpm_core::Solver`]). What
 //! every solver needs is built here: the grid, the material table, the sampled bodies with their
 //! initial velocities, the boundaries as `mpm-core` types, the start-up warnings and the scene
-//! keys of set-up errors. Each solver's build module ([`explicit`], [`tlmpm`]) ends in one
-//! `build` function that makes the solver; [`crate::solvers`] picks it.
+//! keys of set-up errors. Each solver's build module (in its directory under [`crate::solvers`]) ends in one
+//! `build` function that makes the solver; the registry picks it.
 //! Problems found here (a body outside the grid, a body without particles, a missing mesh) are
 //! reported at their key in the scene file.
 
@@ -20,10 +20,6 @@ use mpm_core::{
     SetupError, Solver, TimeStepPolicy, Vector,
 };
 use std::ops::Range;
-
-pub mod diq;
-pub mod explicit;
-pub mod tlmpm;
 
 /// One sampled body.
 #[derive(Clone, Debug, PartialEq)]
@@ -124,7 +120,7 @@ where
     Ok(built)
 }
 
-fn vector<const D: usize>(v: &[f64]) -> Vector<D> {
+pub(crate) fn vector<const D: usize>(v: &[f64]) -> Vector<D> {
     Vector::<D>::from_fn(|a, _| v.get(a).copied().unwrap_or(0.0))
 }
 

@@ -72,13 +72,13 @@ pub(crate) struct RawBody {
     angular_velocity: Option<NumberOrList>,
     about: Option<Vec<f64>>,
     /// Read by the explicit solver's module.
-    pub(super) initial_phi_eff: Option<f64>,
+    pub(crate) initial_phi_eff: Option<f64>,
     /// Read by the explicit solver's module.
-    pub(super) concentration: Option<f64>,
+    pub(crate) concentration: Option<f64>,
     /// Read by the explicit solver's module.
-    pub(super) geostatic: Option<bool>,
+    pub(crate) geostatic: Option<bool>,
     /// Read by the explicit solver's module.
-    pub(super) k0: Option<f64>,
+    pub(crate) k0: Option<f64>,
 }
 
 /// One `[[bodies]]` entry.
@@ -205,7 +205,7 @@ pub enum SamplingDef {
 pub const MAX_PHASES: u32 = 16;
 
 /// Number of phases of `bodies`: one more than the largest phase.
-pub(super) fn phase_count(bodies: &[BodyDef]) -> u32 {
+pub(crate) fn phase_count(bodies: &[BodyDef]) -> u32 {
     bodies
         .iter()
         .map(|b| b.phase)

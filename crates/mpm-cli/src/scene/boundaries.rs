@@ -113,7 +113,7 @@ pub(super) fn resolve_boundaries(
 
 /// An error at the `treatment` key of mirrored walls in a scene of `solver`, which has its own
 /// wall treatment (mirrored walls act on the explicit solver's grid).
-pub(super) fn refuse_mirrored_walls(c: &mut Checker<'_>, boundaries: &[BoundaryDef], solver: &str) {
+pub(crate) fn refuse_mirrored_walls(c: &mut Checker<'_>, boundaries: &[BoundaryDef], solver: &str) {
     for (i, b) in boundaries.iter().enumerate() {
         if let BoundaryGeometry::Walls {
             treatment: WallTreatment::Mirror,

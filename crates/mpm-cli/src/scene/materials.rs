@@ -257,7 +257,7 @@ pub(super) fn resolve_materials(
 }
 
 /// The index of material `name`, or an error at `key` listing the materials.
-pub(super) fn material_index(
+pub(crate) fn material_index(
     c: &mut Checker<'_>,
     key: &str,
     name: &str,
@@ -290,7 +290,7 @@ pub(super) fn material_index(
 const MIN_DENSITY: f64 = 1e-6;
 
 /// Whether the material is a fluid (`model = "tait"`).
-pub(super) fn is_fluid(m: &MaterialDef) -> bool {
+pub(crate) fn is_fluid(m: &MaterialDef) -> bool {
     matches!(m.model, ModelDef::Tait(_))
 }
 

@@ -12,9 +12,8 @@
 //! the same format with every default filled in, which is what `mpm-cli check` prints.
 //!
 //! The modules follow the tables: [`simulation`], [`grid`], [`materials`], [`bodies`],
-//! [`boundaries`] and [`output`] are common to every solver; [`explicit`] (with the multi-grid
-//! tables of [`multigrid`]) and [`tlmpm`] are the scene modules of the solvers, registered in
-//! [`crate::solvers`].
+//! [`boundaries`] and [`output`] are common to every solver; each solver's scene module is in
+//! its directory under [`crate::solvers`].
 
 use crate::error::{CliError, Diagnostic, SceneError};
 use crate::input::{read_text, MAX_SCENE_BYTES};
@@ -29,14 +28,10 @@ use toml::Spanned;
 
 pub mod bodies;
 pub mod boundaries;
-pub mod diq;
-pub mod explicit;
 pub mod grid;
 pub mod materials;
-pub mod multigrid;
 pub mod output;
 pub mod simulation;
-pub mod tlmpm;
 
 #[cfg(test)]
 mod tests;
@@ -46,24 +41,14 @@ pub use bodies::{
     BodyDef, NumberOrList, SamplingDef, SamplingKind, ShapeDef, ShapeKind, MAX_PHASES,
 };
 pub use boundaries::{BoundaryDef, BoundaryGeometry, BoundaryKind};
-pub use diq::{DiqDef, DiqScene};
-pub use explicit::ExplicitScene;
 pub use grid::{Grid, MAX_GRID_BLOCKS, MAX_GRID_NODES};
 pub use materials::{
     FluidDef, MaterialDef, ModelDef, ModelKind, PlasticityDef, PlasticityKind, Preset, SolidDef,
-};
-pub use multigrid::{
-    ContactDef, CouplingDef, CouplingKindDef, CouplingName, DissolutionDef, DragDef, FrictionModel,
-    InteractionDef, MixingDef, PhiEffRule, PorousDef,
 };
 pub use output::{field_names, CheckpointDef, Interval, OutputDef, Precision};
 pub use simulation::{
     Duration, InitialVolume, InstabilityAction, Simulation, TimeStepDef, TransferKind,
     FLIP_BLEND_DEFAULT,
-};
-pub use tlmpm::{
-    ClampPlaneDef, FixedDef, IntegratorKind, LinearSolverKind, LoadDef, NodalLoadDef, NodesDef,
-    PlaneSide, TlmpmDef, TlmpmScene, TractionDef,
 };
 
 /// The top-level tables every scene may have, whatever its solver.
@@ -383,7 +368,7 @@ pub(crate) struct Checker<'a> {
 
 impl Checker<'_> {
     /// Records a problem at `key`.
-    fn err(&mut self, key: &str, message: impl Into<String>) {
+    pub(crate) fn err(&mut self, key: &str, message: impl Into<String>) {
         self.items.push(Diagnostic {
             key: Some(key.to_string()),
             span: self.spans.locate(key),
@@ -392,7 +377,7 @@ impl Checker<'_> {
     }
 
     /// A finite number satisfying `ok`, else an error `what`.
-    fn num(&mut self, key: &str, v: f64, ok: impl Fn(f64) -> bool, what: &str) -> f64 {
+    pub(crate) fn num(&mut self, key: &str, v: f64, ok: impl Fn(f64) -> bool, what: &str) -> f64 {
         if !(v.is_finite() && ok(v)) {
             self.err(key, format!("{} (got {v})", what));
         }
@@ -400,17 +385,17 @@ impl Checker<'_> {
     }
 
     /// A positive finite number.
-    fn positive(&mut self, key: &str, v: f64) -> f64 {
+    pub(crate) fn positive(&mut self, key: &str, v: f64) -> f64 {
         self.num(key, v, |x| x > 0.0, "must be a positive finite number")
     }
 
     /// A finite number ≥ 0.
-    fn non_negative(&mut self, key: &str, v: f64) -> f64 {
+    pub(crate) fn non_negative(&mut self, key: &str, v: f64) -> f64 {
         self.num(key, v, |x| x >= 0.0, "must be a finite number ≥ 0")
     }
 
     /// A vector of `d` finite numbers.
-    fn vector(&mut self, key: &str, v: &[f64], d: usize) -> Vec<f64> {
+    pub(crate) fn vector(&mut self, key: &str, v: &[f64], d: usize) -> Vec<f64> {
         if v.len() != d {
             self.err(
                 key,
@@ -423,7 +408,13 @@ impl Checker<'_> {
     }
 
     /// A vector of `d` finite numbers that `what` (e.g. `shape = "box"`) requires at `key`.
-    fn required_vector(&mut self, key: &str, v: Option<&[f64]>, d: usize, what: &str) -> Vec<f64> {
+    pub(crate) fn required_vector(
+        &mut self,
+        key: &str,
+        v: Option<&[f64]>,
+        d: usize,
+        what: &str,
+    ) -> Vec<f64> {
         match v {
             Some(v) => self.vector(key, v, d),
             None => {
@@ -435,7 +426,7 @@ impl Checker<'_> {
     }
 
     /// The corners `{key}.min` and `{key}.max` of a box: `max` must exceed `min` on every axis.
-    fn box_corners(&mut self, key: &str, min: &[f64], max: &[f64], d: usize) {
+    pub(crate) fn box_corners(&mut self, key: &str, min: &[f64], max: &[f64], d: usize) {
         if min.len() == d && max.len() == d {
             for a in 0..d {
                 if max[a] <= min[a] {
@@ -449,7 +440,7 @@ impl Checker<'_> {
     }
 
     /// A required key.
-    fn required<T: Clone>(&mut self, key: &str, v: &Option<T>, why: &str) -> Option<T> {
+    pub(crate) fn required<T: Clone>(&mut self, key: &str, v: &Option<T>, why: &str) -> Option<T> {
         if v.is_none() {
             self.err(key, format!("missing key: {why}"));
         }
@@ -457,7 +448,7 @@ impl Checker<'_> {
     }
 
     /// Rejects `key` when it is present (`present`) but does not apply.
-    fn not_applicable(&mut self, key: &str, present: bool, why: &str) {
+    pub(crate) fn not_applicable(&mut self, key: &str, present: bool, why: &str) {
         if present {
             self.err(key, format!("does not apply {why}"));
         }

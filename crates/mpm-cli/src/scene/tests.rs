@@ -2,6 +2,8 @@
 //! enums `mpm-core` and the solver crates deserialise themselves.
 
 use super::*;
+use crate::solvers::explicit::multigrid::CouplingKindDef;
+use crate::solvers::tlmpm::scene::{IntegratorKind, LinearSolverKind};
 use crate::solvers::SolverKind;
 use mpm_core::boundary::ContactKind;
 use mpm_core::Kernel;
@@ -344,7 +346,7 @@ fn rest_state_keys_resolve_print_and_reach_the_solvers() {
         (Some(0.5), Some(0.05), Some(2.0))
     );
     let own = s.scene.explicit().expect("explicit tables");
-    let p = crate::build::explicit::params::<2>(&s, own);
+    let p = crate::solvers::explicit::build::params::<2>(&s, own);
     assert_eq!(p.gravity_ramp.map(|r| r.duration), Some(0.5));
     assert_eq!((p.damping.local, p.damping.viscous), (0.05, 2.0));
     // Printed as given, and the printed scene resolves to the same one.
@@ -356,7 +358,10 @@ fn rest_state_keys_resolve_print_and_reach_the_solvers() {
     assert_eq!(parsed(&toml).scene, s.scene);
     // Absent keys: off, and not printed.
     let plain = parsed(&scene("", "", ""));
-    let p = crate::build::explicit::params::<2>(&plain, plain.scene.explicit().expect("tables"));
+    let p = crate::solvers::explicit::build::params::<2>(
+        &plain,
+        plain.scene.explicit().expect("tables"),
+    );
     assert!(p.damping.is_off() && p.gravity_ramp.is_none());
     assert!(!plain.scene.to_toml().contains("damping"));
     // A geostatic body with its K0.
@@ -504,7 +509,10 @@ fn clamp_planes_resolve_on_node_and_half_node_layers_only() {
         let s = parsed(&plane(position));
         let t = s.scene.tlmpm().unwrap();
         assert_eq!(t.clamp_planes.len(), 1);
-        assert_eq!(t.clamp_planes[0].side, crate::scene::PlaneSide::Above);
+        assert_eq!(
+            t.clamp_planes[0].side,
+            crate::solvers::tlmpm::scene::PlaneSide::Above
+        );
     }
     for bad in ["0.06", "nan"] {
         let text = plane(bad);

@@ -5,10 +5,10 @@
 //! frictionless penalty obstacles). Every `simulation.transfer` applies, `"persistent"` only
 //! here.
 
-use super::bodies::BodyDef;
-use super::boundaries::BoundaryDef;
-use super::materials::{ModelDef, PlasticityDef};
-use super::{Checker, Common, Scene, SolverTables};
+use crate::scene::bodies::BodyDef;
+use crate::scene::boundaries::BoundaryDef;
+use crate::scene::materials::{ModelDef, PlasticityDef};
+use crate::scene::{Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::boundary::ContactKind;
 use mpm_core::Columns;
@@ -736,7 +736,7 @@ pub(crate) fn resolve_solid_tables(
 /// frictionless penalty obstacles. (Keys TLMPM does not read at all, such as `[[couplings]]` or
 /// `bodies[].phase`, are rejected by their owner's key list.)
 fn check_common_tables(c: &mut Checker<'_>, boundaries: &[BoundaryDef]) {
-    super::boundaries::refuse_mirrored_walls(c, boundaries, "tlmpm");
+    crate::scene::boundaries::refuse_mirrored_walls(c, boundaries, "tlmpm");
     for (i, b) in boundaries.iter().enumerate() {
         if b.contact == ContactKind::Sticky {
             c.err(

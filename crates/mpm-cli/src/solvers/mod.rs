@@ -1,10 +1,10 @@
-//! The solver registry: every solver a scene can choose with `simulation.solver`, each with its
-//! scene module (`scene/<module>.rs`, which lists the tables and keys only that solver reads and
-//! resolves them) and its build module (`build/<module>.rs`, which ends in one `build` function
-//! that makes the solver from the resolved scene).
+//! The solver registry: every solver a scene can choose with `simulation.solver`. Each solver
+//! has a directory `solvers/<module>/` with a scene module (`scene.rs`, which lists the tables
+//! and keys only that solver reads and resolves them) and a build module (`build.rs`, which ends
+//! in one `build` function that makes the solver from the resolved scene).
 //!
-//! A new solver adds those two modules and one line to the `solvers!` list at the end of this
-//! file (or moves its name there from the reserved names).
+//! A new solver adds its directory and one line to the `solvers!` list at the end of this file
+//! (or moves its name there from the reserved names); no other file of the CLI changes.
 
 use crate::build::{Built, Start};
 use crate::error::SceneError;
@@ -58,20 +58,25 @@ pub fn available_names() -> String {
     }
 }
 
-/// Defines [`SolverKind`], [`SolverScene`], [`OWNED`] and the dispatch to each solver's scene and
-/// build modules from one line per solver, `Variant = "name" => module::SceneType`: the scene
-/// module is `crate::scene::module`, whose `SceneType` implements [`SolverTables`], and the build
-/// module `crate::build::module`, whose `build` makes the solver. Reserved names are solvers a
-/// scene may name that cannot run yet.
+/// Declares the solver modules and defines [`SolverKind`], [`SolverScene`], [`OWNED`] and the
+/// dispatch to each solver's scene and build modules from one line per solver,
+/// `Variant = "name" => module::SceneType`: the module is `solvers/module/`, its scene module
+/// `module::scene`, whose `SceneType` implements [`SolverTables`], and its build module
+/// `module::build`, whose `build` makes the solver. Reserved names are solvers a scene may name that cannot run yet.
 macro_rules! solvers {
     (
         available {
-            $($(#[$doc:meta])* $kind:ident = $name:literal => $module:ident::$part:ident,)+
+            $(
+                $(#[$doc:meta])* $kind:ident = $name:literal => $module:ident::$part:ident
+                ,
+            )+
         }
         reserved {
             $($(#[$rdoc:meta])* $rkind:ident = $rname:literal,)*
         }
     ) => {
+        $(pub mod $module;)+
+
         /// Which solver runs the scene (`simulation.solver`).
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
         pub enum SolverKind {
@@ -93,16 +98,16 @@ macro_rules! solvers {
         #[derive(Clone, Debug, PartialEq, Serialize)]
         #[serde(untagged)]
         pub enum SolverScene {
-            $($(#[$doc])* $kind(crate::scene::$module::$part),)+
+            $($(#[$doc])* $kind($module::scene::$part),)+
         }
 
         /// The tables and keys of every solver that can run a scene, in registry order.
         pub(crate) const OWNED: &[Owned] = &[$(Owned {
             kind: SolverKind::$kind,
-            tables: <crate::scene::$module::$part as SolverTables>::TABLES,
-            keys: <crate::scene::$module::$part as SolverTables>::KEYS,
-            fields: <crate::scene::$module::$part as SolverTables>::FIELDS,
-            sparse_grid: <crate::scene::$module::$part as SolverTables>::SPARSE_GRID,
+            tables: <$module::scene::$part as SolverTables>::TABLES,
+            keys: <$module::scene::$part as SolverTables>::KEYS,
+            fields: <$module::scene::$part as SolverTables>::FIELDS,
+            sparse_grid: <$module::scene::$part as SolverTables>::SPARSE_GRID,
         },)+];
 
         impl SolverScene {
@@ -123,7 +128,7 @@ macro_rules! solvers {
             ) -> Option<Self> {
                 match kind {
                     $(SolverKind::$kind => {
-                        resolve_solver::<crate::scene::$module::$part>(c, tables, common)
+                        resolve_solver::<$module::scene::$part>(c, tables, common)
                             .map(SolverScene::$kind)
                     })+
                     $(SolverKind::$rkind => None,)*
@@ -134,7 +139,7 @@ macro_rules! solvers {
             pub(crate) fn fields(&self) -> &'static [&'static str] {
                 match self {
                     $(SolverScene::$kind(_) => {
-                        <crate::scene::$module::$part as SolverTables>::FIELDS
+                        <$module::scene::$part as SolverTables>::FIELDS
                     })+
                 }
             }
@@ -143,7 +148,7 @@ macro_rules! solvers {
             pub(crate) fn printed_last(&self) -> bool {
                 match self {
                     $(SolverScene::$kind(_) => {
-                        <crate::scene::$module::$part as SolverTables>::PRINTED_LAST
+                        <$module::scene::$part as SolverTables>::PRINTED_LAST
                     })+
                 }
             }
@@ -165,7 +170,7 @@ macro_rules! solvers {
                 Dim<D>: DimOps<D>,
             {
                 match self {
-                    $(SolverScene::$kind(s) => crate::build::$module::build(scene, s, start),)+
+                    $(SolverScene::$kind(s) => $module::build::build(scene, s, start),)+
                 }
             }
         }

@@ -3,15 +3,15 @@
 //! per-particle forces, `[[nodal_loads]]` and `[[tractions]]`, and the scene keys of its set-up
 //! errors.
 
-use super::{
+use crate::build::{
     boundaries, damping, gravity_ramp, on_instability, setup_error, time_step_policy,
     unused_materials, vector, Built, ErrorKeys, Start,
 };
 use crate::error::SceneError;
-use crate::scene::{
-    BoundaryGeometry, IntegratorKind, LinearSolverKind, LoadDef, LoadedScene, NodesDef, PlaneSide,
-    TlmpmDef, TlmpmScene, TransferKind, FLIP_BLEND_DEFAULT,
+use super::scene::{
+    IntegratorKind, LinearSolverKind, LoadDef, NodesDef, PlaneSide, TlmpmDef, TlmpmScene,
 };
+use crate::scene::{BoundaryGeometry, LoadedScene, TransferKind, FLIP_BLEND_DEFAULT};
 use mpm_core::quasistatic::GravityRamp;
 use mpm_core::sampling::vector_text;
 use mpm_core::{Dim, DimOps, GridSpec, Particles, Vector};
@@ -138,7 +138,7 @@ pub fn params<const D: usize>(
 }
 
 /// Newton and linear-solver parameters of `[tlmpm]`.
-pub(super) fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
+pub(crate) fn implicit_params(t: &TlmpmDef) -> ImplicitParams {
     let d = NewtonParams::default();
     ImplicitParams {
         newton: NewtonParams {

@@ -3,14 +3,14 @@
 //! coupling), and the checks of the common tables it needs (walls and colliders free slip
 //! without friction; APIC transfer; static colliders with solids).
 
-use super::bodies::BodyDef;
-use super::boundaries::BoundaryDef;
-use super::materials::ModelDef;
-use super::simulation::TransferKind;
-use super::tlmpm::{
+use crate::scene::bodies::BodyDef;
+use crate::scene::boundaries::BoundaryDef;
+use crate::scene::materials::ModelDef;
+use crate::scene::simulation::TransferKind;
+use crate::solvers::tlmpm::scene::{
     resolve_solid_tables, IntegratorKind, RawFixed, RawTlmpm, RawTlmpmTables, TlmpmScene,
 };
-use super::{Checker, Common, Scene, SolverTables};
+use crate::scene::{Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::boundary::ContactKind;
 use mpm_core::{Columns, Kernel};
@@ -251,7 +251,7 @@ fn check_common_tables(c: &mut Checker<'_>, transfer: TransferKind, boundaries: 
             "solver \"diq\" supports transfer = \"apic\"",
         );
     }
-    super::boundaries::refuse_mirrored_walls(c, boundaries, "diq");
+    crate::scene::boundaries::refuse_mirrored_walls(c, boundaries, "diq");
     for (i, b) in boundaries.iter().enumerate() {
         if b.contact != ContactKind::Slip {
             c.err(

@@ -4,14 +4,14 @@
 //! `[simulation]`, and the phase, initial φ_eff, concentration and geostatic stress of
 //! `[[bodies]]`.
 
-use super::bodies::{phase_count, BodyDef, RawBody};
-use super::grid::{block_nodes, Grid, MAX_GRID_BLOCKS};
+use crate::scene::bodies::{phase_count, BodyDef, RawBody};
+use crate::scene::grid::{block_nodes, Grid, MAX_GRID_BLOCKS};
 use super::multigrid::{
     resolve_couplings, resolve_dissolution, resolve_mixing, resolve_porous, CouplingDef,
     DissolutionDef, MixingDef, PorousDef, RawCoupling, RawDissolution, RawMixing, RawPorous,
 };
-use super::simulation::{Simulation, TransferKind};
-use super::{count_text, Checker, Common, Scene, SolverTables};
+use crate::scene::simulation::{Simulation, TransferKind};
+use crate::scene::{count_text, Checker, Common, Scene, SolverTables};
 use crate::solvers::SolverScene;
 use mpm_core::{Columns, Material};
 use serde::{Deserialize, Serialize};

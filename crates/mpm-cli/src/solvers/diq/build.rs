@@ -2,12 +2,13 @@
 //! and colliders as free-slip boundaries, coupled to mixed TLMPM solids when the scene has
 //! solid materials, and the scene keys of its set-up errors.
 
-use super::{
+use crate::build::{
     boundaries, on_instability, setup_error, time_step_policy, unused_materials, vector, Built,
     ErrorKeys, Start,
 };
 use crate::error::SceneError;
-use crate::scene::{DiqScene, LoadedScene};
+use super::scene::DiqScene;
+use crate::scene::LoadedScene;
 use mpm_core::{Dim, DimOps, Kernel, Solver};
 use mpm_diq::{CouplingIteration, DiqCoupled, DiqFluid, DiqParams, SolidParams};
 use mpm_tlmpm::TlmpmParams;
@@ -68,9 +69,9 @@ where
                 interface: own.diq.interface,
                 tlmpm: TlmpmParams {
                     kernel: Kernel::Quadratic,
-                    ..super::tlmpm::params::<D>(scene, solids, &spec)
+                    ..crate::solvers::tlmpm::build::params::<D>(scene, solids, &spec)
                 },
-                implicit: super::tlmpm::implicit_params(&solids.tlmpm),
+                implicit: crate::solvers::tlmpm::build::implicit_params(&solids.tlmpm),
                 coupling: CouplingIteration {
                     max_passes: own.diq.coupling_passes,
                     strain_tolerance: own.diq.coupling_strain_tolerance,

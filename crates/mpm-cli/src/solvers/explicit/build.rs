@@ -2,15 +2,14 @@
 //! several coupled ones, with its multi-grid tables, initial volumes from the grid density, and
 //! the scene keys of its set-up errors.
 
-use super::{
+use crate::build::{
     boundaries, damping, gravity_ramp, on_instability, setup_error, time_step_policy,
     unused_materials, vector, BodyInfo, Built, ErrorKeys, Start,
 };
 use crate::error::SceneError;
-use crate::scene::{
-    CouplingDef, CouplingKindDef, DragDef, ExplicitScene, FrictionModel, InitialVolume,
-    LoadedScene, Scene, TransferKind, FLIP_BLEND_DEFAULT,
-};
+use super::multigrid::{CouplingDef, CouplingKindDef, DragDef, FrictionModel};
+use super::scene::ExplicitScene;
+use crate::scene::{InitialVolume, LoadedScene, Scene, TransferKind, FLIP_BLEND_DEFAULT};
 use mpm_core::geostatic::set_geostatic;
 use mpm_core::material::{Interaction, Scaling};
 use mpm_core::volume::estimate_volumes;

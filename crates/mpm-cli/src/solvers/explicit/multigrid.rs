@@ -1,9 +1,9 @@
 //! The multi-grid tables of the explicit solver (multigrid paper §4): `[[couplings]]` between
 //! phase grids, `[porous]` interaction, `[mixing]` of two fluids and `[dissolution]` of a solid.
 
-use super::bodies::BodyDef;
-use super::materials::{is_fluid, material_index, MaterialDef};
-use super::{serde_plain, Checker};
+use crate::scene::bodies::BodyDef;
+use crate::scene::materials::{is_fluid, material_index, MaterialDef};
+use crate::scene::{serde_plain, Checker};
 use mpm_core::material::Parameter;
 use mpm_core::{Kernel, Material};
 use mpm_explicit::{Activation, DiffusionScheme, EffectiveFraction};
