@@ -62,25 +62,27 @@ pub fn available_names() -> String {
 /// dispatch to each solver's scene and build modules from one line per solver,
 /// `Variant = "name" => module::SceneType`: the module is `solvers/module/`, its scene module
 /// `module::scene`, whose `SceneType` implements [`SolverTables`], and its build module
-/// `module::build`, whose `build` makes the solver. Reserved names are solvers a scene may name that cannot run yet.
+/// `module::build`, whose `build` makes the solver. A line ending in `if <cfg>` (e.g.
+/// `if feature = "ballistic"`) registers the solver only in builds where the cfg holds.
+/// Reserved names are solvers a scene may name that cannot run yet.
 macro_rules! solvers {
     (
         available {
             $(
                 $(#[$doc:meta])* $kind:ident = $name:literal => $module:ident::$part:ident
-                ,
+                $(if $cfg:meta)?,
             )+
         }
         reserved {
             $($(#[$rdoc:meta])* $rkind:ident = $rname:literal,)*
         }
     ) => {
-        $(pub mod $module;)+
+        $($(#[cfg($cfg)])? pub mod $module;)+
 
         /// Which solver runs the scene (`simulation.solver`).
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
         pub enum SolverKind {
-            $($(#[$doc])* #[serde(rename = $name)] $kind,)+
+            $($(#[cfg($cfg)])? $(#[$doc])* #[serde(rename = $name)] $kind,)+
             $($(#[$rdoc])* #[serde(rename = $rname)] $rkind,)*
         }
 
@@ -88,7 +90,7 @@ macro_rules! solvers {
             /// The name a scene gives in `simulation.solver`.
             pub fn name(self) -> &'static str {
                 match self {
-                    $(SolverKind::$kind => $name,)+
+                    $($(#[cfg($cfg)])? SolverKind::$kind => $name,)+
                     $(SolverKind::$rkind => $rname,)*
                 }
             }
@@ -98,11 +100,11 @@ macro_rules! solvers {
         #[derive(Clone, Debug, PartialEq, Serialize)]
         #[serde(untagged)]
         pub enum SolverScene {
-            $($(#[$doc])* $kind($module::scene::$part),)+
+            $($(#[cfg($cfg)])? $(#[$doc])* $kind($module::scene::$part),)+
         }
 
         /// The tables and keys of every solver that can run a scene, in registry order.
-        pub(crate) const OWNED: &[Owned] = &[$(Owned {
+        pub(crate) const OWNED: &[Owned] = &[$($(#[cfg($cfg)])? Owned {
             kind: SolverKind::$kind,
             tables: <$module::scene::$part as SolverTables>::TABLES,
             keys: <$module::scene::$part as SolverTables>::KEYS,
@@ -114,7 +116,7 @@ macro_rules! solvers {
             /// The solver.
             pub fn kind(&self) -> SolverKind {
                 match self {
-                    $(SolverScene::$kind(_) => SolverKind::$kind,)+
+                    $($(#[cfg($cfg)])? SolverScene::$kind(_) => SolverKind::$kind,)+
                 }
             }
 
@@ -127,7 +129,7 @@ macro_rules! solvers {
                 common: Common<'_>,
             ) -> Option<Self> {
                 match kind {
-                    $(SolverKind::$kind => {
+                    $($(#[cfg($cfg)])? SolverKind::$kind => {
                         resolve_solver::<$module::scene::$part>(c, tables, common)
                             .map(SolverScene::$kind)
                     })+
@@ -138,7 +140,7 @@ macro_rules! solvers {
             /// The output fields only this solver computes.
             pub(crate) fn fields(&self) -> &'static [&'static str] {
                 match self {
-                    $(SolverScene::$kind(_) => {
+                    $($(#[cfg($cfg)])? SolverScene::$kind(_) => {
                         <$module::scene::$part as SolverTables>::FIELDS
                     })+
                 }
@@ -147,7 +149,7 @@ macro_rules! solvers {
             /// Whether `check` prints the tables after `[output]` and `[checkpoint]`.
             pub(crate) fn printed_last(&self) -> bool {
                 match self {
-                    $(SolverScene::$kind(_) => {
+                    $($(#[cfg($cfg)])? SolverScene::$kind(_) => {
                         <$module::scene::$part as SolverTables>::PRINTED_LAST
                     })+
                 }
@@ -156,7 +158,7 @@ macro_rules! solvers {
             /// The particle columns of the scene, given those its materials need.
             pub(crate) fn columns(&self, materials: Columns, bodies: &[BodyDef]) -> Columns {
                 match self {
-                    $(SolverScene::$kind(s) => s.columns(materials, bodies),)+
+                    $($(#[cfg($cfg)])? SolverScene::$kind(s) => s.columns(materials, bodies),)+
                 }
             }
 
@@ -170,7 +172,7 @@ macro_rules! solvers {
                 Dim<D>: DimOps<D>,
             {
                 match self {
-                    $(SolverScene::$kind(s) => $module::build::build(scene, s, start),)+
+                    $($(#[cfg($cfg)])? SolverScene::$kind(s) => $module::build::build(scene, s, start),)+
                 }
             }
         }
@@ -185,6 +187,8 @@ solvers! {
         Tlmpm = "tlmpm" => tlmpm::TlmpmScene,
         /// DIQ-MPM's incompressible fluid (`mpm-diq`); see `[diq]`.
         Diq = "diq" => diq::DiqScene,
+        /// A toy: particles in free flight bouncing off the grid box (`mpm-ballistic`).
+        Ballistic = "ballistic" => ballistic::BallisticScene if feature = "ballistic",
     }
     reserved {
     }
