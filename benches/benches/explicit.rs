@@ -5,7 +5,7 @@
 //! - `p2g`: binning plus the transfer (`transfer_to_grid`), repeated on the same state;
 //! - `g2p`: G2P plus the commit (`PreparedG2p::run`); each iteration first runs an untimed sort, P2G and
 //!   grid update so the gather always reads a grid that matches the particles;
-//! - `step`: a full `ExplicitSolver::step`, the scene evolving from iteration to iteration;
+//! - `step`: a full `Solver::step` of the explicit solver, the scene evolving from iteration to iteration;
 //!   `step/domain512_3d_256k` is `step/3d_256k`'s cube in a 512³-cell domain (the sparse grid
 //!   stores only the blocks the cube reaches, so it should take the time of the 64³ domain).
 //!

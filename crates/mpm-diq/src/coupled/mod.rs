@@ -45,7 +45,7 @@ pub use params::{
 };
 
 /// DIQ-MPM: the incompressible fluid and mixed TLMPM solids in one step, coupled through one
-/// SPD pressure-only system (see the module docs). Either part may be empty: a solids-only
+/// SPD pressure-only system (derived in `docs/diq-coupling.md`). Either part may be empty: a solids-only
 /// scene has no fluid stage, and a fluid-only scene should use [`DiqFluid`] itself.
 #[derive(Debug)]
 pub struct DiqCoupled<const D: usize> {
@@ -60,7 +60,7 @@ pub struct DiqCoupled<const D: usize> {
     /// `λ^v = λ/2` of each solid particle (Pa).
     lambda_v: Vec<Real>,
     /// Whether each solid particle's material is plastic: its volume term is measured from the
-    /// elastic volume ratio `J_E` (module docs, "Plastic solids").
+    /// elastic volume ratio `J_E` (`docs/diq-coupling.md`, "Plastic solids").
     plastic: Vec<bool>,
     /// Mixed pressure `P^s` of each solid particle (Pa).
     solid_pressure: Vec<Real>,

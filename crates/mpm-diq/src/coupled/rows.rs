@@ -27,7 +27,7 @@ where
         let jac = self.solid_jacobian();
         // With A-ULMPM (§5.4, Eq. 37) the volume term is measured from the current reference:
         // F^(r,n), its reference gradients and the reference volumes V^r = V⁰ det F^(0,r).
-        // Plastic particles carry Ψ^v(J_E) on V⁰ instead (module docs, "Plastic solids").
+        // Plastic particles carry Ψ^v(J_E) on V⁰ instead (`docs/diq-coupling.md`, "Plastic solids").
         let rel = self.solid.relative_def_grads();
         let mut volume = self.solid.reference_volumes();
         for ((v, v0), _) in volume

@@ -110,7 +110,7 @@ where
         })
     }
 
-    /// Plastic particles (module docs, "Plastic solids"): the return mapping scaled the elastic
+    /// Plastic particles (`docs/diq-coupling.md`, "Plastic solids"): the return mapping scaled the elastic
     /// volume ratio by `r = det F_E / det F_E^trial`, so the remapped `J_E = 1 − P/λ^v` becomes
     /// `r J_E`, i.e. `P ← λ^v − r (λ^v − P)`. Elastic particles are left as they are.
     pub(super) fn plastic_pressure_correction(
