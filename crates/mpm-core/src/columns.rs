@@ -389,6 +389,26 @@ mod tests {
     }
 
     #[test]
+    fn a_selection_keeps_every_column_of_the_chosen_particles() {
+        let ps = sample();
+        let index = [4, 1, 3];
+        let sel = ps.select(&index);
+        assert_eq!(sel.len(), 3);
+        assert_eq!(sel.columns(), ps.columns());
+        // Mass is conserved over the chosen particles, and each column holds their values.
+        let chosen: Real = index.iter().map(|&p| ps.mass[p]).sum();
+        assert_eq!(sel.mass.iter().sum::<Real>(), chosen);
+        for (k, &p) in index.iter().enumerate() {
+            assert_eq!(sel.x[k], ps.x[p]);
+            assert_eq!(sel.def_grad_of(k), ps.def_grad_of(p));
+            assert_eq!(sel.plastic_of(k), ps.plastic_of(p));
+            assert_eq!(sel.concentration_of(k), ps.concentration_of(p));
+        }
+        // Selecting everything in order gives the same particles back.
+        assert_eq!(ps.select(&[0, 1, 2, 3, 4]), ps);
+    }
+
+    #[test]
     fn particles_round_trip_bitwise_through_columns() {
         let ps = sample();
         let cols = particle_columns(&ps);

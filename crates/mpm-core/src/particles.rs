@@ -195,6 +195,29 @@ impl<const D: usize> Particles<D> {
         }
     }
 
+    /// The particles `index` (in that order) with every column, e.g. to split one set between
+    /// two solvers.
+    pub fn select(&self, index: &[usize]) -> Self {
+        fn pick<T: Copy>(v: &[T], index: &[usize]) -> Vec<T> {
+            index.iter().map(|&p| v[p]).collect()
+        }
+        let opt = |v: &Option<Vec<Real>>| v.as_deref().map(|v| pick(v, index));
+        Self {
+            x: pick(&self.x, index),
+            v: pick(&self.v, index),
+            mass: pick(&self.mass, index),
+            volume0: pick(&self.volume0, index),
+            material: pick(&self.material, index),
+            affine: pick(&self.affine, index),
+            def_grad: self.def_grad.as_deref().map(|f| pick(f, index)),
+            jacobian: opt(&self.jacobian),
+            plastic: self.plastic.as_deref().map(|s| pick(s, index)),
+            phase: self.phase.as_deref().map(|k| pick(k, index)),
+            volume_fraction: opt(&self.volume_fraction),
+            concentration: opt(&self.concentration),
+        }
+    }
+
     /// Phase of particle `p` (0 when the column does not exist).
     #[inline]
     pub fn phase_of(&self, p: usize) -> u32 {

@@ -182,27 +182,27 @@ pub struct PressureInfo {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Constraints<const D: usize> {
     /// Cells per axis of the fluid grid (nodes per axis minus one).
-    pub cell_dims: [usize; D],
+    cell_dims: [usize; D],
     /// Velocity slots the rows index: the fluid grid's nodes, then any appended with
     /// [`Self::append_nodes`] (the solid's reference nodes in the coupled system).
-    pub num_nodes: usize,
+    num_nodes: usize,
     /// Kind of each unknown.
-    pub kinds: Vec<UnknownKind>,
+    kinds: Vec<UnknownKind>,
     /// Cell (linear index, axis 0 fastest) of a fluid row; node (linear index) of a boundary
     /// row.
-    pub anchors: Vec<usize>,
+    anchors: Vec<usize>,
     row_ptr: Vec<usize>,
     nodes: Vec<usize>,
     coeffs: Vec<Vector<D>>,
     /// `b_k` (m³/s in 3D): the prescribed flux of a boundary row, 0 on fluid rows,
     /// `−S^s_k P^{s,n}_k/Δt` on solid-pressure rows.
-    pub offsets: Vec<Real>,
+    offsets: Vec<Real>,
     /// `D_k` (m⁴ s/kg in 3D): added to the diagonal of the assembled `A` after scaling; the
     /// solid compliance `S^s_k/Δt` on solid-pressure rows, 0 elsewhere.
-    pub diagonal: Vec<Real>,
+    diagonal: Vec<Real>,
     /// Whether the fluid is enclosed (no free surface), so that `A` has the constant pressure
     /// as a (near) null vector: the first unknown is then pinned (see [`PressureSystem`]).
-    pub pin_gauge: bool,
+    pin_gauge: bool,
 }
 
 impl<const D: usize> Constraints<D> {
@@ -266,6 +266,58 @@ impl<const D: usize> Constraints<D> {
         self.anchors.push(anchor);
         self.offsets.push(offset);
         self.diagonal.push(0.0);
+    }
+
+    /// Cells per axis of the fluid grid (nodes per axis minus one).
+    pub fn cell_dims(&self) -> [usize; D] {
+        self.cell_dims
+    }
+
+    /// Velocity slots the rows index: the fluid grid's nodes, then any appended with
+    /// [`Self::append_nodes`].
+    pub fn num_nodes(&self) -> usize {
+        self.num_nodes
+    }
+
+    /// Kind of each unknown.
+    pub fn kinds(&self) -> &[UnknownKind] {
+        &self.kinds
+    }
+
+    /// Cell (linear index) of each fluid row, node (linear index) of each boundary row.
+    pub fn anchors(&self) -> &[usize] {
+        &self.anchors
+    }
+
+    /// `b_k` of each row (m³/s in 3D).
+    pub fn offsets(&self) -> &[Real] {
+        &self.offsets
+    }
+
+    /// `b_k` of each row, to change in place (one per row: rows are added with
+    /// [`Self::push_row`] only).
+    pub fn offsets_mut(&mut self) -> &mut [Real] {
+        &mut self.offsets
+    }
+
+    /// `D_k` of each row (m⁴ s/kg in 3D).
+    pub fn diagonal(&self) -> &[Real] {
+        &self.diagonal
+    }
+
+    /// `D_k` of each row, to change in place.
+    pub fn diagonal_mut(&mut self) -> &mut [Real] {
+        &mut self.diagonal
+    }
+
+    /// Whether the first unknown is pinned (an enclosed fluid, see [`PressureSystem`]).
+    pub fn pin_gauge(&self) -> bool {
+        self.pin_gauge
+    }
+
+    /// Pins the first unknown (`true`) or not.
+    pub fn set_pin_gauge(&mut self, pin: bool) {
+        self.pin_gauge = pin;
     }
 
     /// Number of unknowns.

@@ -77,34 +77,24 @@ pub struct DiqCoupled<const D: usize> {
     times: StageTimes,
 }
 
-/// The particles `index` of `ps` with material indices renumbered by `material`.
+/// The particles `index` of `ps` with material indices renumbered by `material`: for solids
+/// (`solid`) with their deformation gradients and plastic states, for the fluid without.
 fn subset<const D: usize>(
     ps: &Particles<D>,
     index: &[usize],
     material: &[u32],
     solid: bool,
 ) -> Particles<D> {
-    let mut columns = ps.columns();
-    columns.deformation_gradient = solid;
-    columns.jacobian = false;
-    columns.plastic &= solid;
-    let mut out = Particles::new(columns);
-    for &p in index {
-        out.push(mpm_core::ParticleInit {
-            x: ps.x[p],
-            v: ps.v[p],
-            mass: ps.mass[p],
-            volume0: ps.volume0[p],
-            material: material[ps.material[p] as usize],
-            affine: ps.affine[p],
-        });
-        let k = out.len() - 1;
-        if let (Some(f), true) = (&mut out.def_grad, solid) {
-            f[k] = ps.def_grad_of(p);
-        }
-        if let (Some(s), Some(src)) = (&mut out.plastic, &ps.plastic) {
-            s[k] = src[p];
-        }
+    let mut out = ps.select(index);
+    for m in &mut out.material {
+        *m = material[*m as usize];
+    }
+    out.jacobian = None;
+    if solid {
+        out.def_grad = Some(index.iter().map(|&p| ps.def_grad_of(p)).collect());
+    } else {
+        out.def_grad = None;
+        out.plastic = None;
     }
     out
 }

@@ -62,7 +62,7 @@ where
             .collect();
         for ((cell, _), (entries, s, sp_n)) in self.solid_cells.iter().zip(built) {
             rows.push_row(UnknownKind::SolidPressure, *cell, entries, -sp_n / dt);
-            *rows.diagonal.last_mut().expect("pushed") = s / dt;
+            *rows.diagonal_mut().last_mut().expect("pushed") = s / dt;
         }
     }
 
@@ -242,7 +242,7 @@ where
         let (mut rows, volumes) =
             self.fluid
                 .constraints((&points.x, &points.volume), bins, &nodes.mass, self.time);
-        rows.pin_gauge = false;
+        rows.set_pin_gauge(false);
         let offset = rows.append_nodes(v_solid.len());
         self.push_solid_rows(&mut rows, offset, dt);
         match self.solid_params.interface {

@@ -75,12 +75,12 @@ where
             None
         };
         let mut solid_pressure = vec![0.0; self.solid_pressure.len()];
-        for (k, kind) in rows.kinds.iter().enumerate() {
+        for (k, kind) in rows.kinds().iter().enumerate() {
             if *kind == UnknownKind::SolidPressure {
                 let (_, members) = self
                     .solid_cells
                     .iter()
-                    .find(|(c, _)| *c == rows.anchors[k])
+                    .find(|(c, _)| *c == rows.anchors()[k])
                     .expect("every solid row is a solid cell");
                 for &p in members {
                     solid_pressure[p] = lambda[k];

@@ -226,9 +226,9 @@ fn node_rows_hold_the_normal_on_faces_and_both_axes_at_corners() {
     let (rows, _, _) = s.coupled_problem(5e-3).unwrap();
     let spec = tank(n);
     let mut count = std::collections::BTreeMap::<usize, usize>::new();
-    for (k, kind) in rows.kinds.iter().enumerate() {
+    for (k, kind) in rows.kinds().iter().enumerate() {
         if *kind == UnknownKind::Interface {
-            *count.entry(rows.anchors[k]).or_default() += 1;
+            *count.entry(rows.anchors()[k]).or_default() += 1;
         }
     }
     let (lo, hi) = ([0.375, 0.25], [0.625, 0.5]);

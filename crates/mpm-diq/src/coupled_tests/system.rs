@@ -9,7 +9,7 @@ fn coupled_matrix_is_eq35_symmetric_and_positive_definite() {
     let mut s = floating(16, 500.0, 0.5, 0.25, 0.375, true);
     let dt = 2e-3;
     let (rows, inv_mass, _) = s.coupled_problem(dt).unwrap();
-    let count = |k: UnknownKind| rows.kinds.iter().filter(|&&x| x == k).count();
+    let count = |k: UnknownKind| rows.kinds().iter().filter(|&&x| x == k).count();
     assert!(count(UnknownKind::Fluid) > 50);
     assert!(count(UnknownKind::Wall) > 10);
     assert!(
@@ -27,7 +27,7 @@ fn coupled_matrix_is_eq35_symmetric_and_positive_definite() {
         .assemble(&rows, &inv_mass, dt, &PressureParams::default(), &|_| false)
         .unwrap();
     let a = system.matrix().unwrap().to_dense();
-    let (n, slots) = (rows.len(), rows.num_nodes);
+    let (n, slots) = (rows.len(), rows.num_nodes());
     let mut j = nalgebra::DMatrix::<Real>::zeros(n, 2 * slots);
     for k in 0..n {
         let (nodes, coeffs) = rows.row(k);
@@ -42,7 +42,7 @@ fn coupled_matrix_is_eq35_symmetric_and_positive_definite() {
         (0..2 * slots).map(|i| inv_mass[i / 2]),
     ));
     let compliance = nalgebra::DMatrix::<Real>::from_diagonal(&nalgebra::DVector::from_vec(
-        rows.diagonal.clone(),
+        rows.diagonal().to_vec(),
     ));
     let dense = &j * minv * j.transpose() * dt + compliance;
     let scale = dense.amax();
@@ -58,7 +58,7 @@ fn coupled_matrix_is_eq35_symmetric_and_positive_definite() {
     // interface pressures.
     for k in 0..n {
         for l in 0..n {
-            let (kk, kl) = (rows.kinds[k], rows.kinds[l]);
+            let (kk, kl) = (rows.kinds()[k], rows.kinds()[l]);
             if kk == UnknownKind::SolidPressure
                 && matches!(kl, UnknownKind::Fluid | UnknownKind::Wall)
             {
@@ -68,10 +68,10 @@ fn coupled_matrix_is_eq35_symmetric_and_positive_definite() {
     }
     // A11 only has the compliance S/Δt on the diagonal beyond Δt G^sᵀ M^s⁻¹ G^s: positive.
     for k in 0..n {
-        if rows.kinds[k] == UnknownKind::SolidPressure {
-            assert!(rows.diagonal[k] > 0.0);
+        if rows.kinds()[k] == UnknownKind::SolidPressure {
+            assert!(rows.diagonal()[k] > 0.0);
         } else {
-            assert_eq!(rows.diagonal[k], 0.0);
+            assert_eq!(rows.diagonal()[k], 0.0);
         }
     }
     let eig = nalgebra::SymmetricEigen::new(a).eigenvalues;

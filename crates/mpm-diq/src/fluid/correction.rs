@@ -48,12 +48,12 @@ where
         let nf = rows.num_fluid();
         let mut any = false;
         for k in 0..nf {
-            let th = self.cell_fraction(&theta, rows.anchors[k]);
+            let th = self.cell_fraction(&theta, rows.anchors()[k]);
             let excess = (th - 1.0).max(0.0);
             any |= excess > 0.0;
-            rows.offsets[k] = -volumes[k] * excess;
+            rows.offsets_mut()[k] = -volumes[k] * excess;
         }
-        for o in rows.offsets[nf..].iter_mut() {
+        for o in rows.offsets_mut()[nf..].iter_mut() {
             *o = 0.0;
         }
         if !any {

@@ -132,7 +132,7 @@ where
             }
             rows.push_row(UnknownKind::Wall, anchor, entries, b);
         }
-        rows.pin_gauge = !self.has_free_surface(&fluid_cells, bins);
+        rows.set_pin_gauge(!self.has_free_surface(&fluid_cells, bins));
         (rows, volumes)
     }
 
@@ -193,8 +193,8 @@ where
         let mut pressure = vec![0.0; self.domain.num_cells()];
         let mut divergence = vec![0.0; self.domain.num_cells()];
         for k in 0..rows.num_fluid() {
-            pressure[rows.anchors[k]] = lambda[k];
-            divergence[rows.anchors[k]] = -after[k] / volumes[k];
+            pressure[rows.anchors()[k]] = lambda[k];
+            divergence[rows.anchors()[k]] = -after[k] / volumes[k];
         }
         (pressure, divergence)
     }
