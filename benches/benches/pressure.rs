@@ -353,7 +353,7 @@ fn bench_coupled(c: &mut Criterion) {
     let mut coupled = floating_block_2d(460);
     let dt = 1e-3;
     let problem = coupled.coupled_problem(dt).expect("elastic solve");
-    let count = |k: UnknownKind| problem.0.kinds.iter().filter(|&&x| x == k).count();
+    let count = |k: UnknownKind| problem.0.kinds().iter().filter(|&&x| x == k).count();
     eprintln!(
         "floating block 2D: {} particles, {} unknowns ({} fluid, {} wall, {} solid, {} interface)",
         coupled.particles().len(),

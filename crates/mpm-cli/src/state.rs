@@ -1,23 +1,12 @@
-//! A solver's named columns ([`mpm_core::Column`]) as `mpm-io` fields and back: the snapshot
-//! fields a scene asks for, the whole solver state for a checkpoint, and the state read from a
-//! checkpoint for `--resume`. The solver decides what its columns hold; this module only moves
-//! them between the two representations.
+//! A solver's named columns ([`mpm_core::Column`], which are `mpm-io`'s fields) in and out of
+//! files: the snapshot fields a scene asks for, and the state read from a checkpoint for
+//! `--resume`. The solver decides what its columns hold.
 
 use mpm_core::{Column, Dim, DimOps, Solver, SolverState};
-use mpm_io::{Field, Snapshot};
+use mpm_io::Snapshot;
 
 /// Unit system written to every file.
 pub const UNITS: &str = "SI (m, s, kg, Pa); in 2D volumes are areas (m^2)";
-
-/// A column as an `mpm-io` field: the same type ([`mpm_io::Field`] is [`mpm_core::Column`]).
-pub fn to_field(c: Column) -> Field {
-    c
-}
-
-/// An `mpm-io` field as a column.
-pub fn to_column(f: &Field) -> Column {
-    f.clone()
-}
 
 /// The snapshot columns named in `names` (as resolved by the scene), in that order; names the
 /// solver does not have are skipped.
@@ -33,7 +22,7 @@ pub fn checkpoint_state(ck: &Snapshot) -> SolverState {
     SolverState {
         time: ck.header.time,
         steps: ck.header.step,
-        columns: ck.fields.iter().map(to_column).collect(),
+        columns: ck.fields.clone(),
         attrs: ck.header.attrs.clone(),
     }
 }

@@ -56,4 +56,6 @@ pub use multigrid::{
 };
 pub use p2g::kirchhoff;
 pub use params::{BodyForce, ExplicitParams, SoftWalls, Transfer, VolumeUpdate};
-pub use solver::{ExplicitSolver, PreparedG2p, ScratchBytes};
+#[cfg(feature = "bench")]
+pub use solver::PreparedG2p;
+pub use solver::{ExplicitSolver, ScratchBytes};

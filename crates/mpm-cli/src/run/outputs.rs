@@ -3,7 +3,7 @@
 
 use super::{checkpoint_name, code_version, numbered_files, snapshot_name, Runner};
 use crate::error::CliError;
-use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, to_field, UNITS};
+use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, UNITS};
 use mpm_core::{Dim, DimOps};
 use mpm_io::{
     read_file, read_layout, write_file, write_file_with, write_xdmf, FileKind, Header, SeriesEntry,
@@ -221,19 +221,18 @@ where
                 self.solver.time()
             )));
         }
-        let fields: Vec<_> = columns.into_iter().map(to_field).collect();
         let name = snapshot_name(self.frame);
         let header = self.header(
             FileKind::Snapshot,
             vec![("frame".to_string(), self.frame as f64)],
         );
         let storage = self.scene.scene.output.storage();
-        write_file_with(&self.out.join(&name), &header, &fields, storage)?;
+        write_file_with(&self.out.join(&name), &header, &columns, storage)?;
         self.series.push(SeriesEntry {
             time: self.solver.time(),
             file: name,
             dim: D as u32,
-            fields: fields.iter().map(|f| storage.spec(f)).collect(),
+            fields: columns.iter().map(|f| storage.spec(f)).collect(),
         });
         write_xdmf(&self.out.join("run.xmf"), &self.series)?;
         for (stats, m) in self.monitors.iter_mut().zip(self.solver.monitors()) {
@@ -266,7 +265,6 @@ where
             attrs.push((ATTR_NEXT_CHECKPOINT.to_string(), s.next));
         }
         attrs.extend(state.attrs);
-        let fields: Vec<_> = state.columns.into_iter().map(to_field).collect();
         let i = &self.initial;
         let mut init = vec![i.mass];
         init.extend((0..3).map(|a| if a < D { i.momentum[a] } else { 0.0 }));
@@ -292,7 +290,7 @@ where
         }
         let name = checkpoint_name(self.solver.steps());
         let header = self.header(FileKind::Checkpoint, attrs);
-        write_file(&self.out.join(&name), &header, &fields)?;
+        write_file(&self.out.join(&name), &header, &state.columns)?;
         self.last_checkpoint_step = Some(self.solver.steps());
         self.checkpoints_written.push(name);
         let all = numbered_files(&self.out, "ckpt_");

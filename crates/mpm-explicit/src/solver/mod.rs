@@ -2,6 +2,10 @@
 //! accessors. The stage methods (sort, volumes, diffusion, P2G, grid update, coupling, G2P,
 //! commit) are in `stages`, the `Solver` implementation with checkpoint and restore in `seam`.
 
+#[cfg(feature = "bench")]
+mod probe;
+#[cfg(feature = "bench")]
+pub use probe::PreparedG2p;
 mod seam;
 mod stages;
 
@@ -310,23 +314,6 @@ where
         self.reestimate_volumes();
     }
 
-    /// Runs every stage before G2P for a step of `dt` (s) and returns a handle whose
-    /// [`PreparedG2p::run`] performs G2P and the commit: for benchmarks that time G2P alone.
-    pub fn prepare_g2p(&mut self, dt: Real) -> Result<PreparedG2p<'_, D>, StepError<Infallible>> {
-        let start = StepStart {
-            step: self.steps,
-            time: self.time,
-        };
-        self.transfer_to_grid(dt);
-        self.update_grid(dt)
-            .map_err(|e| start.error(Failure::Guard(Stage::GRID_UPDATE, e), dt, 0))?;
-        if self.multigrid() {
-            self.couple_phases(dt)
-                .map_err(|e| start.error(Failure::Guard(crate::stages::COUPLING, e), dt, 0))?;
-        }
-        Ok(PreparedG2p { solver: self, dt })
-    }
-
     /// The stable explicit step bound (s) for the current state, before `dt_max`:
     /// `min(C·Δx / max_p(|v_p| + c_p), Δx²/(2Dν))`. With a fixed dt, `C` is 1.
     pub fn stable_dt(&self) -> Real {
@@ -449,29 +436,6 @@ where
             inertia,
             &self.params.gravity,
         )
-    }
-}
-
-/// A solver with every stage before G2P done for one step (see
-/// [`ExplicitSolver::prepare_g2p`]).
-pub struct PreparedG2p<'a, const D: usize> {
-    solver: &'a mut ExplicitSolver<D>,
-    dt: Real,
-}
-
-impl<const D: usize> PreparedG2p<'_, D>
-where
-    Dim<D>: DimOps<D>,
-{
-    /// G2P in place with its guard checks, then the multi-grid state; when a check fails the
-    /// particles hold the partial result. Time and the step count do not advance.
-    pub fn run(self) -> Result<(), (Location, Violation, Real)> {
-        self.solver.signal = None;
-        self.solver.grid_to_particle(self.dt)?;
-        if self.solver.has_extra_state() {
-            self.solver.commit_extra();
-        }
-        Ok(())
     }
 }
 
