@@ -48,6 +48,14 @@ pub mod stages {
     pub const FLIGHT: Stage = Stage::new("flight");
 }
 
+/// The output fields the ballistic solver computes beyond the particle columns and `pressure`.
+pub mod fields {
+    /// Speed `|v|` per particle (m/s).
+    pub const SPEED: &str = "speed";
+    /// Every ballistic-only output field.
+    pub const ALL: &[&str] = &[SPEED];
+}
+
 /// Name of the energy term (J) the bounces have dissipated, in [`mpm_core::Diagnostics`].
 pub const DISSIPATED_ENERGY: &str = "dissipated";
 

@@ -171,7 +171,7 @@ where
             derived: true,
         });
         fields.push(FieldInfo {
-            name: "speed",
+            name: crate::fields::SPEED,
             unit: "m/s",
             components: 1,
             derived: true,
@@ -181,9 +181,9 @@ where
 
     fn output(&self, name: &str) -> Vec<Column> {
         match name {
-            "speed" => {
+            crate::fields::SPEED => {
                 let speed: Vec<Real> = self.particles.v.iter().map(|v| v.norm()).collect();
-                vec![Column::scalars("speed", "m/s", &speed)]
+                vec![Column::scalars(crate::fields::SPEED, "m/s", &speed)]
             }
             "pressure" => vec![Column::scalars("pressure", "Pa", &self.pressure())],
             _ => columns::particle_column(&self.particles, name),

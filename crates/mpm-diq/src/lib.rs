@@ -59,5 +59,14 @@ pub use pressure::{
 #[cfg(test)]
 mod coupled_tests;
 pub mod stages;
+
+/// The output fields DIQ computes beyond the particle columns and `pressure` (a scene may name
+/// them in `output.fields`).
+pub mod fields {
+    /// Velocity divergence per particle after the projection (1/s): that of its cell.
+    pub const DIVERGENCE: &str = "divergence";
+    /// Every DIQ-only output field.
+    pub const ALL: &[&str] = &[DIVERGENCE];
+}
 #[cfg(test)]
 mod tests;

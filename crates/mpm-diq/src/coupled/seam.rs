@@ -185,7 +185,7 @@ where
             derived: true,
         });
         fields.push(FieldInfo {
-            name: "divergence",
+            name: crate::fields::DIVERGENCE,
             unit: "1/s",
             components: 1,
             derived: true,
@@ -200,8 +200,8 @@ where
     fn output(&self, name: &str) -> Vec<Column> {
         match name {
             "pressure" => vec![Column::scalars("pressure", "Pa", &self.scene_pressure())],
-            "divergence" => vec![Column::scalars(
-                "divergence",
+            crate::fields::DIVERGENCE => vec![Column::scalars(
+                crate::fields::DIVERGENCE,
                 "1/s",
                 &self.scene_divergence(),
             )],

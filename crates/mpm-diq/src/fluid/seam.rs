@@ -120,7 +120,7 @@ where
             derived: true,
         });
         fields.push(FieldInfo {
-            name: "divergence",
+            name: crate::fields::DIVERGENCE,
             unit: "1/s",
             components: 1,
             derived: true,
@@ -135,7 +135,11 @@ where
     fn output(&self, name: &str) -> Vec<Column> {
         match name {
             "pressure" => vec![Column::scalars("pressure", "Pa", &self.pressure)],
-            "divergence" => vec![Column::scalars("divergence", "1/s", &self.divergence)],
+            crate::fields::DIVERGENCE => vec![Column::scalars(
+                crate::fields::DIVERGENCE,
+                "1/s",
+                &self.divergence,
+            )],
             _ => columns::particle_column(&self.particles, name),
         }
     }

@@ -37,7 +37,7 @@ impl SolverTables for BallisticScene {
     const TABLES: &'static [&'static str] = &["ballistic"];
     const KEYS: &'static [&'static str] = &[];
     const PRINTED_LAST: bool = false;
-    const FIELDS: &'static [&'static str] = &["speed"];
+    const FIELDS: &'static [&'static str] = mpm_ballistic::fields::ALL;
     type Raw = RawBallisticTables;
 
     fn resolve(c: &mut Checker<'_>, raw: RawBallisticTables, common: Common<'_>) -> Self {

@@ -102,7 +102,7 @@ impl SolverTables for DiqScene {
     const TABLES: &'static [&'static str] = &["diq", "tlmpm", "fixed"];
     const KEYS: &'static [&'static str] = &[];
     const PRINTED_LAST: bool = true;
-    const FIELDS: &'static [&'static str] = &["divergence"];
+    const FIELDS: &'static [&'static str] = mpm_diq::fields::ALL;
     type Raw = RawDiqTables;
 
     fn resolve(c: &mut Checker<'_>, raw: RawDiqTables, common: Common<'_>) -> Self {
