@@ -1,5 +1,6 @@
 //! `mpm-cli`: run MPM scenes. Exit codes: 0 ok, 2 bad input, 3 numerical instability,
-//! 130 / 143 a run stopped by SIGINT / SIGTERM (after writing a checkpoint), 1 anything else.
+//! 130 / 143 / 129 a run stopped by SIGINT / SIGTERM / SIGHUP (after writing a checkpoint), 1
+//! anything else.
 
 use clap::{Parser, Subcommand};
 use mpm_cli::render::RenderOptions;
@@ -13,7 +14,8 @@ use std::process::ExitCode;
 /// The exit codes, shown by `--help`.
 const EXIT_CODES: &str =
     "Exit codes: 0 ok, 1 other error (e.g. a file could not be written), 2 bad \
-input, 3 numerical instability, 130 / 143 a run stopped by SIGINT (Ctrl-C) / SIGTERM: it finished \
+input, 3 numerical instability, 130 / 143 / 129 a run stopped by SIGINT (Ctrl-C) / SIGTERM / SIGHUP \
+(a closed terminal): it finished \
 its step and wrote a checkpoint, a snapshot and summary.json (status \"interrupted\"); continue \
 it with --resume. A second signal ends it at once (killed by that signal); files written before \
 stay complete.";
@@ -34,8 +36,9 @@ struct Cli {
 enum Command {
     /// Run a scene: HDF5 snapshots, run.xmf, checkpoints and summary.json in the output directory.
     ///
-    /// SIGINT (Ctrl-C) or SIGTERM stops the run after the current step with a checkpoint
-    /// ckpt_NNNNNN.h5, a snapshot and summary.json (status "interrupted"), exit code 130 or 143;
+    /// SIGINT (Ctrl-C), SIGTERM or SIGHUP stops the run after the current step with a checkpoint
+    /// ckpt_NNNNNN.h5, a snapshot and summary.json (status "interrupted"), exit code 130, 143 or
+    /// 129; messages to a closed pipe or terminal are dropped without stopping the run;
     /// --resume continues it bitwise. A second signal ends the process at once, killed by that
     /// signal; every file written before stays complete (files are renamed into place when
     /// complete), and --resume from the newest checkpoint continues.
@@ -169,11 +172,11 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             stop: Some(mpm_cli::run::stop_on_signals()?),
         }),
         Command::Check { scene } => {
-            print!("{}", mpm_cli::check::check(&scene)?);
+            mpm_cli::out!("{}", mpm_cli::check::check(&scene)?);
             Ok(())
         }
         Command::Info { file, scene } => {
-            print!("{}", mpm_cli::info::info(&file, scene)?);
+            mpm_cli::out!("{}", mpm_cli::info::info(&file, scene)?);
             Ok(())
         }
         Command::Render {
@@ -197,7 +200,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                 view,
             })?;
             for f in files {
-                println!("{}", f.display());
+                mpm_cli::outln!("{}", f.display());
             }
             Ok(())
         }
@@ -220,7 +223,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                 iso,
             })?;
             for f in files {
-                println!(
+                mpm_cli::outln!(
                     "{}: {} particles, {} vertices, {} triangles, volume {:.6e} m^3",
                     f.path.display(),
                     f.particles,
@@ -239,7 +242,7 @@ fn main() -> ExitCode {
     match dispatch(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("{e}");
+            mpm_cli::errln!("{e}");
             ExitCode::from(e.exit_code() as u8)
         }
     }

@@ -1,9 +1,10 @@
-//! SIGINT and SIGTERM stop a run after the current step: exit code 130 / 143, a checkpoint of
-//! the step reached, `summary.json` with status "interrupted", and `--resume` from that
-//! checkpoint ends with every snapshot (and `run.xmf`) identical to an uninterrupted run's. A
-//! second signal while the stopped run writes its checkpoint ends the process at once, by that
-//! signal, and leaves every earlier output complete; `--resume` from the newest checkpoint then
-//! finishes the run and removes the half-written file.
+//! SIGINT, SIGTERM and SIGHUP stop a run after the current step: exit code 130 / 143 / 129, a
+//! checkpoint of the step reached, `summary.json` with status "interrupted", and `--resume`
+//! from that checkpoint ends with every snapshot (and `run.xmf`) identical to an uninterrupted
+//! run's. A second signal while the stopped run writes its checkpoint ends the process at once,
+//! by that signal, and leaves every earlier output complete; `--resume` from the newest
+//! checkpoint then finishes the run and removes the half-written file. Closed output pipes do
+//! not stop a run.
 
 mod common;
 
@@ -150,6 +151,53 @@ fn sigterm_with_checkpoints_resumes_bitwise_to_the_same_final_checkpoint() {
     assert_bitwise(&end("straight"), &end("stopped"), "final checkpoint");
     // `keep = 2` holds for the interrupted run's checkpoints too.
     assert_eq!(numbered_files(&d.join("stopped"), "ckpt_").len(), 2);
+}
+
+#[test]
+fn sighup_stops_like_sigterm_and_resumes_bitwise() {
+    stop_and_resume("sighup", WATER_600, "HUP", 129);
+}
+
+#[test]
+fn closed_output_pipes_do_not_stop_a_run() {
+    use std::io::Read;
+    // `mpm-cli run scene.toml 2>&1 | head -n 2`: the reader goes away after the first bytes
+    // of progress; the run still finishes (exit 0) with its summary and last snapshot.
+    let d = tmpdir("closed-pipes");
+    let scene = write(
+        &d,
+        "s.toml",
+        &WATER_600.replace("steps = 600", "steps = 200"),
+    );
+    let out = d.join("out");
+    let mut child = Command::new(bin())
+        .args([
+            "run",
+            &scene.to_string_lossy(),
+            "--out",
+            &out.to_string_lossy(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn mpm-cli");
+    let mut first = [0u8; 16];
+    let n = child
+        .stderr
+        .as_mut()
+        .expect("stderr")
+        .read(&mut first)
+        .expect("read");
+    assert!(n > 0, "no progress on stderr");
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let status = child.wait().expect("wait");
+    assert_eq!(status.code(), Some(0), "{status:?}");
+    assert_eq!(summary(&out)["status"], "ok", "{}", summary(&out));
+    assert!(
+        out.join("snap_000010.h5").exists(),
+        "the last snapshot (step 200)"
+    );
 }
 
 /// The jelly cube of [`JELLY_3D`] at dx = 0.01 m: 64,000 particles (a checkpoint of about

@@ -240,7 +240,7 @@ where
             solver, warnings, ..
         } = built;
         for w in &warnings {
-            eprintln!("warning: {w}");
+            crate::errln!("warning: {w}");
         }
         let initial = solver.diagnostics();
         let sc = &scene.scene;
@@ -294,7 +294,7 @@ where
     }
 
     fn warn(&mut self, w: String) {
-        eprintln!("warning: {w}");
+        crate::errln!("warning: {w}");
         self.warnings.push(w);
     }
 
@@ -327,7 +327,7 @@ where
         let wall = Instant::now();
         let n = self.solver.particles().len();
         if !self.quiet {
-            eprintln!(
+            crate::errln!(
                 "{}: {}D, {n} particles, grid {:?} nodes (dx = {} m), {} threads, output in {}",
                 self.scene.path.display(),
                 D,
@@ -409,7 +409,7 @@ where
         // truncated summary.json.
         let write_summary = write_atomically(&summary_path, (text + "\n").as_bytes());
         if let Some(e) = failure {
-            eprintln!(
+            crate::errln!(
                 "run stopped after {} steps; outputs written so far are kept in {}",
                 self.solver.steps(),
                 self.out.display()

@@ -79,7 +79,7 @@ where
         }
         removed += remove_temporary_files(&self.out);
         if removed > 0 && !self.quiet {
-            eprintln!(
+            crate::errln!(
                 "note: removed {removed} snapshot, checkpoint, series, summary or temporary files \
                  of an earlier run in {}",
                 self.out.display()
@@ -185,7 +185,7 @@ where
             }
         }
         if !self.quiet {
-            eprintln!(
+            crate::errln!(
                 "resuming from {} at t = {:.6} s, step {}",
                 path.display(),
                 self.solver.time(),

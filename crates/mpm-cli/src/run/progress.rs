@@ -76,7 +76,7 @@ where
             "summary: {}\n",
             self.out.join("summary.json").display()
         ));
-        print!("{out}");
+        crate::out!("{out}");
         let _ = std::io::stdout().flush();
     }
 }
@@ -119,7 +119,7 @@ impl Progress {
             self.last = Instant::now();
             let width = 24;
             let filled = ((fraction * width as f64).round() as usize).min(width);
-            eprint!(
+            crate::err!(
                 "\r\x1b[2K[{}{}] {:5.1}%  t = {:.4e} s  step {}  dt = {:.3e} s  ETA {}",
                 "#".repeat(filled),
                 "-".repeat(width - filled),
@@ -134,7 +134,7 @@ impl Progress {
             while self.next_fraction <= fraction {
                 self.next_fraction += 0.1;
             }
-            eprintln!(
+            crate::errln!(
                 "{:5.1}%  t = {:.4e} s  step {}  dt = {:.3e} s  elapsed {}  ETA {}",
                 100.0 * fraction,
                 time,
@@ -148,7 +148,7 @@ impl Progress {
 
     pub(super) fn finish(&mut self) {
         if self.drawn {
-            eprintln!();
+            crate::errln!();
         }
     }
 }

@@ -1,5 +1,5 @@
-//! Signal handling of `mpm-cli run`: SIGINT and SIGTERM stop the run after the current step
-//! with a checkpoint (see [`stop_on_signals`]).
+//! Signal handling of `mpm-cli run`: SIGINT, SIGTERM and SIGHUP (a closed terminal or SSH
+//! session) stop the run after the current step with a checkpoint (see [`stop_on_signals`]).
 
 use super::Runner;
 use crate::error::CliError;
@@ -7,18 +7,18 @@ use mpm_core::{Dim, DimOps};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 
-/// Installs handlers so that the first SIGINT or SIGTERM stores its signal number in the
+/// Installs handlers so that the first SIGINT, SIGTERM or SIGHUP stores its signal number in the
 /// returned flag (the run loop then finishes its step, writes a checkpoint, a snapshot and
 /// `summary.json` with status "interrupted", and exits with 128 + the number), and a second
 /// one ends the process at once with the signal's default action. Every output is written
 /// under a temporary name and renamed into place, so that second signal, even during the
 /// checkpoint write, leaves the files written before complete.
 pub fn stop_on_signals() -> Result<Arc<AtomicUsize>, CliError> {
-    use signal_hook::consts::{SIGINT, SIGTERM};
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
     use signal_hook::flag;
     let which = Arc::new(AtomicUsize::new(0));
     let armed = Arc::new(AtomicBool::new(false));
-    for sig in [SIGINT, SIGTERM] {
+    for sig in [SIGINT, SIGTERM, SIGHUP] {
         // The conditional default goes first: it fires only once `armed` is set, i.e. on the
         // second signal.
         flag::register_conditional_default(sig, Arc::clone(&armed))
@@ -38,6 +38,7 @@ pub(super) fn signal_name(signal: i32) -> String {
     match signal {
         signal_hook::consts::SIGINT => "SIGINT".into(),
         signal_hook::consts::SIGTERM => "SIGTERM".into(),
+        signal_hook::consts::SIGHUP => "SIGHUP".into(),
         s => format!("signal {s}"),
     }
 }
