@@ -44,6 +44,7 @@ pub mod quasistatic;
 pub mod sampling;
 pub mod scatter;
 pub mod solver;
+pub mod step_control;
 
 pub use error::{Instability, Location, SetupError, Stage, Violation};
 pub use grid::{GridNodes, GridSpec, NodeLayout, StencilRange};
@@ -65,4 +66,5 @@ pub use solver::{
     on_pool, reached, retry_halving, run_until_with, Failure, Monitor, PlannedStage, RunInfo,
     SolveInfo, Solver, SolverState, StagePlan, StageTimes, StepError, StepInfo, StepStart,
 };
+pub use step_control::StepControl;
 pub use timestep::{OnInstability, TimeStepPolicy};

@@ -31,6 +31,18 @@ impl Damping {
         self.local == 0.0 && self.viscous == 0.0
     }
 
+    /// The parameter name and value of the first damping that is on (local before viscous),
+    /// for a solver that has no damping to name what it rejects; `None` when both are off.
+    pub fn first_on(&self) -> Option<(&'static str, Real)> {
+        if self.local != 0.0 {
+            Some(("local damping", self.local))
+        } else if self.viscous != 0.0 {
+            Some(("viscous damping", self.viscous))
+        } else {
+            None
+        }
+    }
+
     /// The damped velocity (m/s) after a step of `dt` (s) of a node of mass `m` (kg) with
     /// velocity `v` (m/s) before the update and unbalanced force `f` (N).
     pub fn velocity<const D: usize>(

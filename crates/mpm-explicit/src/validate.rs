@@ -25,7 +25,7 @@ pub(crate) fn validate<const D: usize>(
     if let Some(&n) = spec.size.iter().find(|&&n| n < params.kernel.support() + 1) {
         return invalid("grid.size", n as Real, "too few nodes for the kernel");
     }
-    params.time_step.validate()?;
+    params.step.time_step.validate()?;
     if let Transfer::Flip { blend } = params.transfer {
         if !(0.0..=1.0).contains(&blend) {
             return invalid("flip blend", blend, "must lie in [0, 1]");
@@ -36,10 +36,10 @@ pub(crate) fn validate<const D: usize>(
             return invalid("soft_walls.lookahead", sw.lookahead, "must be positive");
         }
     }
-    if let Some((name, value, reason)) = params.damping.invalid() {
+    if let Some((name, value, reason)) = params.step.damping.invalid() {
         return invalid(name, value, reason);
     }
-    if let Some(r) = params.gravity_ramp {
+    if let Some(r) = params.step.gravity_ramp {
         if !(r.duration > 0.0 && r.duration.is_finite()) {
             return invalid("gravity ramp", r.duration, "must be a positive finite time");
         }

@@ -2,10 +2,7 @@
 //! and colliders as free-slip boundaries, coupled to mixed TLMPM solids when the scene has
 //! solid materials, and the scene keys of its set-up errors.
 
-use super::{
-    boundaries, on_instability, setup_error, time_step_policy, unused_materials, vector, Built,
-    ErrorKeys, Start,
-};
+use super::{boundaries, setup_error, step_control, unused_materials, Built, ErrorKeys, Start};
 use crate::error::SceneError;
 use crate::scene::{DiqScene, LoadedScene};
 use mpm_core::{Dim, DimOps, Kernel, Solver};
@@ -42,9 +39,7 @@ where
     let warnings = unused_materials(sc, &particles, None);
     let s = &sc.simulation;
     let params = DiqParams {
-        time_step: time_step_policy(s),
-        gravity: vector::<D>(&s.gravity),
-        on_instability: on_instability(s),
+        step: step_control::<D>(s),
         pressure: own.diq.pressure(),
         position_correction: own.diq.position_correction,
         gradient_quadrature: own.diq.gradient_quadrature,

@@ -3,8 +3,8 @@
 //! the scene keys of its set-up errors.
 
 use super::{
-    boundaries, damping, gravity_ramp, on_instability, setup_error, time_step_policy,
-    unused_materials, vector, BodyInfo, Built, ErrorKeys, Start,
+    boundaries, setup_error, step_control, unused_materials, vector, BodyInfo, Built, ErrorKeys,
+    Start,
 };
 use crate::error::SceneError;
 use crate::scene::{
@@ -67,11 +67,7 @@ pub fn params<const D: usize>(scene: &LoadedScene, own: &ExplicitScene) -> Expli
                 unreachable!("the explicit scene module refuses transfer = \"persistent\"")
             }
         },
-        gravity: vector::<D>(&s.gravity),
-        gravity_ramp: gravity_ramp(s),
-        damping: damping(s),
-        time_step: time_step_policy(s),
-        on_instability: on_instability(s),
+        step: step_control::<D>(s),
         volume: s.volume_update,
         soft_walls: s.soft_walls,
         body_force: None,

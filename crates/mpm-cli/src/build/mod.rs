@@ -17,7 +17,7 @@ use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::sampling::{Body, BodyError, ParticlesBuilder, Sampling, Shape, MAX_PARTICLES};
 use mpm_core::{
     Angular, Dim, DimOps, GridSpec, Material, Matrix, OnInstability, ParticleExtra, Particles,
-    SetupError, Solver, TimeStepPolicy, Vector,
+    SetupError, Solver, StepControl, TimeStepPolicy, Vector,
 };
 use std::ops::Range;
 
@@ -134,41 +134,34 @@ pub fn grid_spec<const D: usize>(scene: &LoadedScene) -> GridSpec<D> {
     GridSpec::covering(vector::<D>(&g.min), vector::<D>(&g.max), g.dx)
 }
 
-/// The time-step policy of `[simulation]`.
-pub fn time_step_policy(s: &Simulation) -> TimeStepPolicy {
-    match s.time_step {
-        TimeStepDef::Adaptive {
-            cfl,
-            dt_max,
-            dt_min,
-        } => TimeStepPolicy::Adaptive {
-            cfl,
-            dt_max,
-            dt_min,
+/// The step control of `[simulation]`: gravity, its ramp, the damping (off unless given), the
+/// time-step policy and what to do on a failed guard check. Scenes of a solver without a ramp
+/// or damping cannot give those keys, so its step control has them off.
+pub fn step_control<const D: usize>(s: &Simulation) -> StepControl<D> {
+    StepControl {
+        gravity: vector::<D>(&s.gravity),
+        gravity_ramp: s.gravity_ramp.map(|duration| GravityRamp { duration }),
+        damping: Damping {
+            local: s.local_damping.unwrap_or(0.0),
+            viscous: s.viscous_damping.unwrap_or(0.0),
         },
-        TimeStepDef::Fixed { dt } => TimeStepPolicy::Fixed { dt },
-    }
-}
-
-/// The gravity ramp of `[simulation]`, if any.
-pub fn gravity_ramp(s: &Simulation) -> Option<GravityRamp> {
-    s.gravity_ramp.map(|duration| GravityRamp { duration })
-}
-
-/// The damping of `[simulation]` (off unless given).
-pub fn damping(s: &Simulation) -> Damping {
-    Damping {
-        local: s.local_damping.unwrap_or(0.0),
-        viscous: s.viscous_damping.unwrap_or(0.0),
-    }
-}
-
-/// What to do on a failed guard check, from `[simulation]`.
-pub fn on_instability(s: &Simulation) -> OnInstability {
-    match s.on_instability {
-        InstabilityAction::Abort => OnInstability::Abort,
-        InstabilityAction::Retry => OnInstability::Retry {
-            max_retries: s.max_retries.unwrap_or(4),
+        time_step: match s.time_step {
+            TimeStepDef::Adaptive {
+                cfl,
+                dt_max,
+                dt_min,
+            } => TimeStepPolicy::Adaptive {
+                cfl,
+                dt_max,
+                dt_min,
+            },
+            TimeStepDef::Fixed { dt } => TimeStepPolicy::Fixed { dt },
+        },
+        on_instability: match s.on_instability {
+            InstabilityAction::Abort => OnInstability::Abort,
+            InstabilityAction::Retry => OnInstability::Retry {
+                max_retries: s.max_retries.unwrap_or(4),
+            },
         },
     }
 }

@@ -4,8 +4,7 @@
 //! errors.
 
 use super::{
-    boundaries, damping, gravity_ramp, on_instability, setup_error, time_step_policy,
-    unused_materials, vector, Built, ErrorKeys, Start,
+    boundaries, setup_error, step_control, unused_materials, vector, Built, ErrorKeys, Start,
 };
 use crate::error::SceneError;
 use crate::scene::{
@@ -80,11 +79,7 @@ pub fn params<const D: usize>(
             },
             TransferKind::Persistent => Transfer::Persistent,
         },
-        gravity: vector::<D>(&sc.simulation.gravity),
-        gravity_ramp: gravity_ramp(&sc.simulation),
-        damping: damping(&sc.simulation),
-        time_step: time_step_policy(&sc.simulation),
-        on_instability: on_instability(&sc.simulation),
+        step: step_control::<D>(&sc.simulation),
         fixed: own
             .fixed
             .iter()

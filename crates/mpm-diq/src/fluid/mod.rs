@@ -23,21 +23,22 @@ use crate::pressure::{PressureParams, PressureSystem};
 use mpm_core::boundary::{Boundaries, ContactKind};
 use mpm_core::solver::DtBound;
 use mpm_core::{
-    Dim, DimOps, GridSpec, Material, OnInstability, Particles, Real, SetupError, Stage, StagePlan,
-    StageTimes, TimeStepPolicy, Vector,
+    Dim, DimOps, GridSpec, Material, Particles, Real, SetupError, Stage, StagePlan, StageTimes,
+    StepControl, Vector,
 };
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the DIQ fluid solver.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DiqParams<const D: usize> {
-    /// Time step. With [`TimeStepPolicy::Adaptive`], `cfl` is the fraction of Δx a particle may
-    /// travel in one step (0.4 in the paper's Table 1): `dt (|v|max + |g| dt) = cfl Δx`.
-    pub time_step: TimeStepPolicy,
-    /// Gravity (m/s²).
-    pub gravity: Vector<D>,
-    /// Abort, or retry at dt/2, when a guard check or the pressure solve fails.
-    pub on_instability: OnInstability,
+    /// Gravity, time step, damping and the reaction to instability. With
+    /// [`TimeStepPolicy::Adaptive`](mpm_core::TimeStepPolicy::Adaptive), `cfl` is the fraction of Δx a particle may travel in one
+    /// step (0.4 in the paper's Table 1): `dt (|v|max + |g| dt) = cfl Δx`. The reaction covers
+    /// a failed guard check and a failed pressure solve. DIQ has neither a gravity ramp nor
+    /// damping: set-up rejects a ramp and damping that is on. Serialised under the old keys
+    /// `time_step`, `gravity` and `on_instability`.
+    #[serde(flatten)]
+    pub step: StepControl<D>,
     /// The pressure solve.
     pub pressure: PressureParams,
     /// The volume-preserving position correction after advection (on by default).
@@ -72,9 +73,10 @@ impl<const D: usize> Default for DiqParams<D> {
         let mut gravity = Vector::<D>::zeros();
         gravity[D - 1] = -9.81;
         Self {
-            time_step: TimeStepPolicy::default(),
-            gravity,
-            on_instability: OnInstability::Abort,
+            step: StepControl {
+                gravity,
+                ..StepControl::default()
+            },
             pressure: PressureParams::default(),
             position_correction: true,
             gradient_quadrature: GradientQuadrature::default(),
@@ -130,6 +132,22 @@ fn invalid(name: &'static str, value: Real, reason: &'static str) -> SetupError 
     }
 }
 
+/// Rejects a gravity ramp and damping that is on: DIQ loads gravity in full from the start and
+/// has no damping term.
+pub(crate) fn no_ramp_or_damping<const D: usize>(step: &StepControl<D>) -> Result<(), SetupError> {
+    if let Some(r) = step.gravity_ramp {
+        return Err(invalid(
+            "gravity ramp",
+            r.duration,
+            "DIQ has no gravity ramp",
+        ));
+    }
+    if let Some((name, value)) = step.damping.first_on() {
+        return Err(invalid(name, value, "DIQ has no damping"));
+    }
+    Ok(())
+}
+
 impl<const D: usize> DiqFluid<D>
 where
     Dim<D>: DimOps<D>,
@@ -158,10 +176,11 @@ where
         mut particles: Particles<D>,
         time: Real,
     ) -> Result<Self, SetupError> {
-        params.time_step.validate()?;
-        if !params.gravity.iter().all(|g| g.is_finite()) {
+        params.step.time_step.validate()?;
+        if !params.step.gravity.iter().all(|g| g.is_finite()) {
             return Err(invalid("gravity", Real::NAN, "must be finite"));
         }
+        no_ramp_or_damping(&params.step)?;
         let p = &params.pressure;
         if !(p.rel_tol > 0.0 && p.rel_tol < 1.0) {
             return Err(invalid("pressure.rel_tol", p.rel_tol, "must lie in (0, 1)"));
@@ -314,7 +333,10 @@ where
         let mut plan = StagePlan::default();
         plan.push(
             Stage::TIME_STEP,
-            self.params.time_step.describe("Δx / max(|v| + |g| dt)"),
+            self.params
+                .step
+                .time_step
+                .describe("Δx / max(|v| + |g| dt)"),
         );
         plan.push(Stage::SORT, "bin particles by cell");
         plan.push(

@@ -162,7 +162,7 @@ where
             "at set-up: weights, gradients, connectivity and node masses of the reference \
              configuration",
         );
-        plan.push(Stage::TIME_STEP, p.time_step.describe(bound));
+        plan.push(Stage::TIME_STEP, p.step.time_step.describe(bound));
         plan.push(
             Stage::P2G,
             format!(
@@ -185,8 +185,8 @@ where
             crate::stages::EXTERNAL_FORCES,
             format!(
                 "gravity {:?} m/s^2{}{}{}",
-                p.gravity.as_slice(),
-                p.gravity_ramp.map_or(String::new(), |r| format!(
+                p.step.gravity.as_slice(),
+                p.step.gravity_ramp.map_or(String::new(), |r| format!(
                     " ramped from 0 over {} s",
                     r.duration
                 )),
@@ -268,8 +268,8 @@ where
     /// plus the nodal loads and tractions (ramped likewise).
     pub fn external_forces(&mut self) {
         let g = gravity_at(
-            &self.params.gravity,
-            self.params.gravity_ramp.as_ref(),
+            &self.params.step.gravity,
+            self.params.step.gravity_ramp.as_ref(),
             self.time,
         );
         self.external.clear();
@@ -467,7 +467,7 @@ where
     /// The stable step bound (s) before `dt_max`: `cfl · Δx / max_p (|v_p| + c_p)` with the
     /// P-wave speed `c_p` when `wave`, else `cfl · Δx / max_p |v_p|`. With a fixed dt, cfl = 1.
     pub fn stable_dt(&self, wave: bool) -> Real {
-        let cfl = match self.params.time_step {
+        let cfl = match self.params.step.time_step {
             TimeStepPolicy::Adaptive { cfl, .. } => cfl,
             TimeStepPolicy::Fixed { .. } => 1.0,
         };
@@ -490,11 +490,12 @@ where
 
     /// Chooses the step under the policy.
     pub fn choose_dt(&self, wave: bool) -> Result<Real, Failure> {
-        let stable = match self.params.time_step {
+        let stable = match self.params.step.time_step {
             TimeStepPolicy::Fixed { .. } => Real::INFINITY,
             TimeStepPolicy::Adaptive { .. } => self.stable_dt(wave),
         };
-        choose_dt(&self.params.time_step, stable).map_err(|e| Failure::Guard(Stage::TIME_STEP, e))
+        choose_dt(&self.params.step.time_step, stable)
+            .map_err(|e| Failure::Guard(Stage::TIME_STEP, e))
     }
 
     /// Runs `attempt` with `dt0` (s), halving dt after a failure as the policy allows
@@ -505,7 +506,7 @@ where
         dt0: Real,
         mut attempt: impl FnMut(&mut Self, Real) -> Result<T, Failure>,
     ) -> Result<(T, Real, u32), StepError> {
-        let (policy, start) = (self.params.on_instability, self.start());
+        let (policy, start) = (self.params.step.on_instability, self.start());
         let r = retry_halving(policy, start, dt0, |dt| attempt(self, dt))?;
         self.time += r.1;
         self.steps += 1;
@@ -526,10 +527,14 @@ where
     /// step: the fixed Δt, or `min(stable(), dt_max)` with `stable` the solver's adaptive bound
     /// (s).
     pub fn diagnostics(&self, stable: impl FnOnce() -> Real) -> Diagnostics<D> {
-        let mut d =
-            Diagnostics::compute(&self.particles, &self.materials, None, &self.params.gravity);
+        let mut d = Diagnostics::compute(
+            &self.particles,
+            &self.materials,
+            None,
+            &self.params.step.gravity,
+        );
         if let (Some(stage), Some(params)) = (&self.contact, &self.params.contact) {
-            let dt = match self.params.time_step {
+            let dt = match self.params.step.time_step {
                 TimeStepPolicy::Fixed { dt } => dt,
                 TimeStepPolicy::Adaptive { dt_max, .. } => stable().min(dt_max),
             };
@@ -583,11 +588,11 @@ fn validate<const D: usize>(
     if !(spec.dx > 0.0 && spec.dx.is_finite()) {
         return invalid("grid.dx", spec.dx, "must be positive and finite");
     }
-    params.time_step.validate()?;
-    if params.gravity.iter().any(|g| !g.is_finite()) {
+    params.step.time_step.validate()?;
+    if params.step.gravity.iter().any(|g| !g.is_finite()) {
         return invalid("gravity", Real::NAN, "must be finite");
     }
-    if let Some((name, value, reason)) = params.damping.invalid() {
+    if let Some((name, value, reason)) = params.step.damping.invalid() {
         return invalid(name, value, reason);
     }
     if let Transfer::Flip { blend } = params.transfer {
@@ -595,7 +600,7 @@ fn validate<const D: usize>(
             return invalid("flip blend", blend, "must lie in [0, 1]");
         }
     }
-    if let Some(r) = params.gravity_ramp {
+    if let Some(r) = params.step.gravity_ramp {
         if !(r.duration > 0.0 && r.duration.is_finite()) {
             return invalid("gravity ramp", r.duration, "must be a positive finite time");
         }
