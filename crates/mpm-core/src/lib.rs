@@ -37,6 +37,7 @@ pub mod material;
 pub mod math;
 pub mod mirror;
 pub mod neighbors;
+pub mod parameters;
 pub mod particles;
 pub mod prefetch;
 pub mod prelude;
@@ -46,7 +47,7 @@ pub mod scatter;
 pub mod solver;
 pub mod step_control;
 
-pub use error::{Instability, Location, SetupError, Stage, Violation};
+pub use error::{Instability, Location, Parameter, SetupError, Stage, Violation};
 pub use grid::{GridNodes, GridSpec, NodeLayout, StencilRange};
 pub use kernel::{AxisStencil, Kernel, Stencil};
 pub use material::Material;

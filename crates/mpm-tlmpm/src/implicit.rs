@@ -141,7 +141,7 @@ where
         };
         if implicit.linear == LinearSolver::Cholesky {
             solver.analyse().map_err(|e| SetupError::InvalidParameter {
-                name: "linear_solver",
+                name: crate::parameters::LINEAR_SOLVER,
                 value: Real::NAN,
                 reason: match e {
                     CholeskyError::Backend(_) => "symbolic Cholesky analysis failed",

@@ -96,9 +96,11 @@ mod explicit;
 mod implicit;
 mod loads;
 mod newton;
+pub mod parameters;
 mod params;
 mod potential;
 mod reference;
+pub mod settings;
 pub mod stages;
 mod transfer;
 

@@ -626,7 +626,7 @@ fn the_implicit_solver_rejects_damping() {
     )
     .expect_err("rejected");
     assert!(
-        matches!(err, mpm_core::SetupError::InvalidParameter { name: "local damping", value, .. } if value == 0.05),
+        matches!(err, mpm_core::SetupError::InvalidParameter { name: mpm_core::parameters::LOCAL_DAMPING, value, .. } if value == 0.05),
         "{err}"
     );
 }

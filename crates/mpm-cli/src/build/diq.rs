@@ -5,19 +5,22 @@
 use super::{boundaries, setup_error, step_control, unused_materials, Built, ErrorKeys, Start};
 use crate::error::SceneError;
 use crate::scene::{DiqScene, LoadedScene};
-use mpm_core::{Dim, DimOps, Kernel, Solver};
-use mpm_diq::{CouplingIteration, DiqCoupled, DiqFluid, DiqParams, SolidParams};
+use mpm_core::{Dim, DimOps, Kernel, Parameter, Solver};
+use mpm_diq::{settings, CouplingIteration, DiqCoupled, DiqFluid, DiqParams, SolidParams};
 use mpm_tlmpm::TlmpmParams;
 
-/// The scene keys of the DIQ solver's parameter names (`SetupError::InvalidParameter`).
-const PARAMETER_KEYS: [(&str, &str); 6] = [
-    ("grid", "grid.max"),
-    ("gravity", "simulation.gravity"),
-    ("pressure.rel_tol", "diq.rel_tol"),
-    ("pressure.max_iterations", "diq.max_iterations"),
-    ("mass", "bodies"),
-    ("lambda", "materials"),
-];
+/// The scene keys of the DIQ solvers' parameters (`SetupError::InvalidParameter`) beyond those
+/// of `mpm-core` (`CORE_PARAMETER_KEYS`).
+pub(super) const PARAMETER_KEYS: [(Parameter, &str); 5] = {
+    use mpm_diq::parameters::*;
+    [
+        (GRID, "grid.max"),
+        (PRESSURE_REL_TOL, "diq.rel_tol"),
+        (PRESSURE_MAX_ITERATIONS, "diq.max_iterations"),
+        (MASS, "bodies"),
+        (LAMBDA, "materials"),
+    ]
+};
 
 /// Builds the DIQ fluid solver from the sampled scene, with the start-up warnings (unused
 /// materials).
@@ -47,8 +50,8 @@ where
     let keys = ErrorKeys {
         parameters: &PARAMETER_KEYS,
         settings: vec![
-            ("walls".to_string(), "boundaries".to_string()),
-            ("colliders".to_string(), "boundaries".to_string()),
+            (settings::WALLS.to_string(), "boundaries".to_string()),
+            (settings::COLLIDERS.to_string(), "boundaries".to_string()),
         ],
     };
     let fail = |e| setup_error(scene, &bodies, e, &keys);

@@ -16,8 +16,8 @@ use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, DomainWal
 use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::sampling::{Body, BodyError, ParticlesBuilder, Sampling, Shape, MAX_PARTICLES};
 use mpm_core::{
-    Angular, Dim, DimOps, GridSpec, Material, Matrix, OnInstability, ParticleExtra, Particles,
-    SetupError, Solver, StepControl, TimeStepPolicy, Vector,
+    Angular, Dim, DimOps, GridSpec, Material, Matrix, OnInstability, Parameter, ParticleExtra,
+    Particles, SetupError, Solver, StepControl, TimeStepPolicy, Vector,
 };
 use std::ops::Range;
 
@@ -418,23 +418,33 @@ where
     }
 }
 
-/// Where a solver's set-up errors point in the scene: its parameter and setting names
+/// Where a solver's set-up errors point in the scene: its parameters and setting names
 /// (`SetupError::InvalidParameter::name`, `SetupError::InvalidSetting::setting`) with the scene
-/// key of each. The solver's build module keeps the table.
+/// key of each. The solver's build module keeps the table, of the constants the solver crate
+/// declares (its `parameters` and `settings` modules), so a parameter renamed or removed there
+/// fails to compile here.
 #[derive(Clone, Debug, Default)]
 pub struct ErrorKeys<'a> {
-    /// Parameter name → scene key.
-    pub parameters: &'a [(&'a str, &'a str)],
+    /// Parameter → scene key.
+    pub parameters: &'a [(Parameter, &'a str)],
     /// Setting name → scene key.
     pub settings: Vec<(String, String)>,
 }
 
-/// The scene keys of the parameters `mpm-core` checks for every solver (`TimeStepPolicy`).
-const CORE_PARAMETER_KEYS: [(&str, &str); 3] = [
-    ("dt", "simulation.dt"),
-    ("cfl", "simulation.cfl"),
-    ("dt_max", "simulation.dt_max"),
-];
+/// The scene keys of the parameters of `mpm_core::parameters`, which every solver may raise:
+/// the time-step policy, gravity, its ramp and the damping of `[simulation]`.
+const CORE_PARAMETER_KEYS: [(Parameter, &str); 7] = {
+    use mpm_core::parameters::*;
+    [
+        (DT, "simulation.dt"),
+        (CFL, "simulation.cfl"),
+        (DT_MAX, "simulation.dt_max"),
+        (GRAVITY, "simulation.gravity"),
+        (GRAVITY_RAMP, "simulation.gravity_ramp"),
+        (LOCAL_DAMPING, "simulation.local_damping"),
+        (VISCOUS_DAMPING, "simulation.viscous_damping"),
+    ]
+};
 
 /// Maps a solver set-up error to the scene key it comes from, through the solver's `keys`: a
 /// particle outside the grid to its body, a missing column or material to `materials`, and a
@@ -490,6 +500,38 @@ mod tests {
         let scene = parse(Path::new("s.toml"), &text).unwrap_or_else(|e| panic!("{e}"));
         let built = build_dim::<2>(&scene).unwrap_or_else(|e| panic!("{e}"));
         built.solver.particles().volume0.iter().sum()
+    }
+
+    /// Every parameter a solver crate declares (its `parameters::ALL`, and `mpm-core`'s for
+    /// every solver) has a scene key in that solver's table, once: a parameter added to a
+    /// solver crate without a key here would point its errors at `simulation.solver`.
+    #[test]
+    fn every_declared_parameter_has_a_scene_key() {
+        type Table = &'static [(Parameter, &'static str)];
+        let solvers: [(&str, &[Parameter], Table); 4] = [
+            ("core", mpm_core::parameters::ALL, &CORE_PARAMETER_KEYS),
+            (
+                "explicit",
+                mpm_explicit::parameters::ALL,
+                &explicit::PARAMETER_KEYS,
+            ),
+            ("tlmpm", mpm_tlmpm::parameters::ALL, &tlmpm::PARAMETER_KEYS),
+            ("diq", mpm_diq::parameters::ALL, &diq::PARAMETER_KEYS),
+        ];
+        for (solver, declared, table) in solvers {
+            for p in declared {
+                let keys = table.iter().filter(|(q, _)| q == p).count();
+                assert_eq!(keys, 1, "{solver}: parameter `{p}` has {keys} scene keys");
+            }
+            // And the table holds nothing else (no other crate's parameter shadowing a core
+            // key).
+            for (p, key) in table {
+                assert!(
+                    declared.contains(p),
+                    "{solver}: `{p}` -> {key} is not declared"
+                );
+            }
+        }
     }
 
     #[test]

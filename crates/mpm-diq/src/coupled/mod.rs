@@ -171,7 +171,7 @@ where
             (0..particles.len()).partition(|&p| is_fluid[particles.material[p] as usize]);
         if solid_index.is_empty() {
             return Err(SetupError::InvalidSetting {
-                setting: "materials".into(),
+                setting: crate::settings::MATERIALS.into(),
                 reason: "the coupled DIQ solver needs a solid; a fluid alone runs on the DIQ \
                          fluid solver"
                     .into(),
@@ -189,7 +189,7 @@ where
             };
             if !(lambda > 0.0 && lambda.is_finite()) {
                 return Err(SetupError::InvalidParameter {
-                    name: "lambda",
+                    name: crate::parameters::LAMBDA,
                     value: lambda,
                     reason: "the mixed solid needs a positive first Lamé parameter (Poisson's \
                              ratio above 0): λ^v = λ/2 is its pressure stiffness",

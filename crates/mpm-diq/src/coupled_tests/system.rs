@@ -283,6 +283,7 @@ fn solid_solid_penalty_contact_acts_inside_the_coupled_step() {
 
 #[test]
 fn a_gravity_ramp_of_the_fluid_or_the_solids_is_rejected() {
+    use mpm_core::parameters::GRAVITY_RAMP;
     use mpm_core::quasistatic::GravityRamp;
     use mpm_core::SetupError;
     let ramp = Some(GravityRamp { duration: 0.5 });
@@ -302,7 +303,7 @@ fn a_gravity_ramp_of_the_fluid_or_the_solids_is_rejected() {
     assert_eq!(make(fluid.clone(), SolidParams::default()), None);
     let mut ramped = fluid.clone();
     ramped.step.gravity_ramp = ramp;
-    let expected = Some(("gravity ramp", "DIQ has no gravity ramp"));
+    let expected = Some((GRAVITY_RAMP, "DIQ has no gravity ramp"));
     assert_eq!(make(ramped, SolidParams::default()), expected);
     let mut solid = SolidParams::default();
     solid.tlmpm.step.gravity_ramp = ramp;

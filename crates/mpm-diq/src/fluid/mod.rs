@@ -19,12 +19,15 @@ pub(crate) use step::Attempt;
 pub(crate) use transfer::{Bins, NodeFields, Points};
 
 use crate::domain::{Domain, WallSample};
+use crate::parameters::{GRID, MASS, PRESSURE_MAX_ITERATIONS, PRESSURE_REL_TOL};
 use crate::pressure::{PressureParams, PressureSystem};
+use crate::settings;
 use mpm_core::boundary::{Boundaries, ContactKind};
+use mpm_core::parameters::{GRAVITY, GRAVITY_RAMP};
 use mpm_core::solver::DtBound;
 use mpm_core::{
-    Dim, DimOps, GridSpec, Material, Particles, Real, SetupError, Stage, StagePlan, StageTimes,
-    StepControl, Vector,
+    Dim, DimOps, GridSpec, Material, Parameter, Particles, Real, SetupError, Stage, StagePlan,
+    StageTimes, StepControl, Vector,
 };
 use serde::{Deserialize, Serialize};
 
@@ -124,7 +127,7 @@ pub struct DiqFluid<const D: usize> {
     times: StageTimes,
 }
 
-fn invalid(name: &'static str, value: Real, reason: &'static str) -> SetupError {
+fn invalid(name: Parameter, value: Real, reason: &'static str) -> SetupError {
     SetupError::InvalidParameter {
         name,
         value,
@@ -136,11 +139,7 @@ fn invalid(name: &'static str, value: Real, reason: &'static str) -> SetupError 
 /// has no damping term.
 pub(crate) fn no_ramp_or_damping<const D: usize>(step: &StepControl<D>) -> Result<(), SetupError> {
     if let Some(r) = step.gravity_ramp {
-        return Err(invalid(
-            "gravity ramp",
-            r.duration,
-            "DIQ has no gravity ramp",
-        ));
+        return Err(invalid(GRAVITY_RAMP, r.duration, "DIQ has no gravity ramp"));
     }
     if let Some((name, value)) = step.damping.first_on() {
         return Err(invalid(name, value, "DIQ has no damping"));
@@ -178,26 +177,22 @@ where
     ) -> Result<Self, SetupError> {
         params.step.time_step.validate()?;
         if !params.step.gravity.iter().all(|g| g.is_finite()) {
-            return Err(invalid("gravity", Real::NAN, "must be finite"));
+            return Err(invalid(GRAVITY, Real::NAN, "must be finite"));
         }
         no_ramp_or_damping(&params.step)?;
         let p = &params.pressure;
         if !(p.rel_tol > 0.0 && p.rel_tol < 1.0) {
-            return Err(invalid("pressure.rel_tol", p.rel_tol, "must lie in (0, 1)"));
+            return Err(invalid(PRESSURE_REL_TOL, p.rel_tol, "must lie in (0, 1)"));
         }
         if p.max_iterations == 0 {
-            return Err(invalid(
-                "pressure.max_iterations",
-                0.0,
-                "must be at least 1",
-            ));
+            return Err(invalid(PRESSURE_MAX_ITERATIONS, 0.0, "must be at least 1"));
         }
         for (i, m) in materials.iter().enumerate() {
             match m {
                 Material::Fluid(_) => {}
                 Material::Solid(_) => {
                     return Err(SetupError::InvalidSetting {
-                        setting: format!("material {i}"),
+                        setting: settings::material(i),
                         reason: "the DIQ solver takes fluid materials only (solids come with \
                                  the DIQ coupling)"
                             .into(),
@@ -209,7 +204,7 @@ where
             Some(w) => {
                 if w.contact.kind != ContactKind::Slip || w.contact.friction != 0.0 {
                     return Err(SetupError::InvalidSetting {
-                        setting: "walls".into(),
+                        setting: settings::WALLS.into(),
                         reason: "DIQ walls are free slip (v·n = 0, Eq. 25): use kind = \"slip\" \
                                  without friction"
                             .into(),
@@ -227,7 +222,7 @@ where
         );
         if !domain.colliders_are_slip() {
             return Err(SetupError::InvalidSetting {
-                setting: "colliders".into(),
+                setting: settings::COLLIDERS.into(),
                 reason: "DIQ colliders are free slip (v·n = v_b·n, Eq. 25): use kind = \"slip\" \
                          without friction"
                     .into(),
@@ -235,7 +230,7 @@ where
         }
         if !domain.is_valid() {
             return Err(invalid(
-                "grid",
+                GRID,
                 spec.size.iter().copied().min().unwrap_or(0) as Real,
                 "the box inside the walls must hold at least 2 cells per axis",
             ));
@@ -254,7 +249,7 @@ where
                     < 0.0
             }) {
                 return Err(SetupError::InvalidSetting {
-                    setting: "colliders".into(),
+                    setting: settings::COLLIDERS.into(),
                     reason: format!(
                         "particle {i} at {:?} lies inside collider {k} at t = {time} s: fluid \
                          cannot overlap a collider; move the body or the collider",
@@ -272,7 +267,7 @@ where
             }
             if !(particles.mass[i] > 0.0 && particles.volume0[i] > 0.0) {
                 return Err(invalid(
-                    "mass",
+                    MASS,
                     particles.mass[i],
                     "particle mass and volume must be positive",
                 ));

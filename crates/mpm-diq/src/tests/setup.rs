@@ -2,8 +2,9 @@
 //! parameters serialise under the keys they had before the step control was shared.
 
 use super::*;
+use mpm_core::parameters::{GRAVITY_RAMP, LOCAL_DAMPING, VISCOUS_DAMPING};
 use mpm_core::quasistatic::{Damping, GravityRamp};
-use mpm_core::SetupError;
+use mpm_core::{Parameter, SetupError};
 
 /// Builds the 2D column of [`column`] with the step control changed by `edit`.
 fn column_with(edit: impl FnOnce(&mut StepControl<2>)) -> Result<DiqFluid<2>, SetupError> {
@@ -22,7 +23,7 @@ fn column_with(edit: impl FnOnce(&mut StepControl<2>)) -> Result<DiqFluid<2>, Se
 }
 
 /// The name, value and reason of an `InvalidParameter`; panics on anything else.
-fn rejected(r: Result<DiqFluid<2>, SetupError>) -> (&'static str, Real, &'static str) {
+fn rejected(r: Result<DiqFluid<2>, SetupError>) -> (Parameter, Real, &'static str) {
     match r {
         Err(SetupError::InvalidParameter {
             name,
@@ -40,7 +41,7 @@ fn a_gravity_ramp_or_damping_is_rejected() {
     let ramp = column_with(|s| s.gravity_ramp = Some(GravityRamp { duration: 0.5 }));
     assert_eq!(
         rejected(ramp),
-        ("gravity ramp", 0.5, "DIQ has no gravity ramp")
+        (GRAVITY_RAMP, 0.5, "DIQ has no gravity ramp")
     );
     let local = column_with(|s| {
         s.damping = Damping {
@@ -48,10 +49,7 @@ fn a_gravity_ramp_or_damping_is_rejected() {
             viscous: 0.0,
         }
     });
-    assert_eq!(
-        rejected(local),
-        ("local damping", 0.05, "DIQ has no damping")
-    );
+    assert_eq!(rejected(local), (LOCAL_DAMPING, 0.05, "DIQ has no damping"));
     let viscous = column_with(|s| {
         s.damping = Damping {
             local: 0.0,
@@ -60,7 +58,7 @@ fn a_gravity_ramp_or_damping_is_rejected() {
     });
     assert_eq!(
         rejected(viscous),
-        ("viscous damping", 2.0, "DIQ has no damping")
+        (VISCOUS_DAMPING, 2.0, "DIQ has no damping")
     );
 }
 

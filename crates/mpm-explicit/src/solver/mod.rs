@@ -107,7 +107,7 @@ where
         crate::validate::validate(&spec, &params, &materials, &particles)?;
         let mirror = match &boundaries.walls {
             Some(w) => MirrorWalls::new(&spec, w).map_err(|reason| SetupError::InvalidSetting {
-                setting: "walls".into(),
+                setting: crate::settings::WALLS.into(),
                 reason,
             })?,
             None => None,

@@ -15,11 +15,16 @@ use crate::adaptive::Adaptive;
 use crate::contact::{ContactRadius, ContactStage, ContactStats};
 use crate::error::{NewtonError, StepError};
 use crate::loads::AppliedLoads;
+use crate::parameters::{
+    CONTACT_RADIUS, FLIP_BLEND, GRID_DX, MATERIAL_KIND, MATERIAL_PLASTICITY, PARTICLE_MASS,
+    PARTICLE_VOLUME0, REFERENCE_UPDATE_EPSILON, REFERENCE_UPDATE_ETA,
+};
 use crate::params::{TlmpmParams, Transfer};
 use crate::potential::Constitutive;
 use crate::reference::{Constraints, ReferenceConfig};
 use crate::transfer::{self, FlipBlend, Update};
 use mpm_core::material::{ElasticModel, Lame, Plasticity};
+use mpm_core::parameters::GRAVITY;
 use mpm_core::quasistatic::gravity_at;
 use mpm_core::solver::nan_max;
 use mpm_core::timestep::{choose_dt, stable_dt};
@@ -586,38 +591,36 @@ fn validate<const D: usize>(
         })
     };
     if !(spec.dx > 0.0 && spec.dx.is_finite()) {
-        return invalid("grid.dx", spec.dx, "must be positive and finite");
+        return invalid(GRID_DX, spec.dx, "must be positive and finite");
     }
     params.step.time_step.validate()?;
     if params.step.gravity.iter().any(|g| !g.is_finite()) {
-        return invalid("gravity", Real::NAN, "must be finite");
+        return invalid(GRAVITY, Real::NAN, "must be finite");
     }
     if let Some((name, value, reason)) = params.step.damping.invalid() {
         return invalid(name, value, reason);
     }
     if let Transfer::Flip { blend } = params.transfer {
         if !(0.0..=1.0).contains(&blend) {
-            return invalid("flip blend", blend, "must lie in [0, 1]");
+            return invalid(FLIP_BLEND, blend, "must lie in [0, 1]");
         }
     }
-    if let Some(r) = params.step.gravity_ramp {
-        if !(r.duration > 0.0 && r.duration.is_finite()) {
-            return invalid("gravity ramp", r.duration, "must be a positive finite time");
-        }
+    if let Some((name, value, reason)) = params.step.gravity_ramp.and_then(|r| r.invalid()) {
+        return invalid(name, value, reason);
     }
     if let Some(c) = &params.contact {
         if let ContactRadius::Fixed(r) = c.radius {
             if !(r > 0.0 && r.is_finite()) {
-                return invalid("contact.radius", r, "must be positive and finite");
+                return invalid(CONTACT_RADIUS, r, "must be positive and finite");
             }
         }
     }
     if let Some(u) = &params.reference_update {
         if u.epsilon.is_nan() || u.epsilon < 0.0 {
-            return invalid("reference_update.epsilon", u.epsilon, "must be at least 0");
+            return invalid(REFERENCE_UPDATE_EPSILON, u.epsilon, "must be at least 0");
         }
         if !(0.0..=1.0).contains(&u.eta) {
-            return invalid("reference_update.eta", u.eta, "must lie in [0, 1]");
+            return invalid(REFERENCE_UPDATE_ETA, u.eta, "must lie in [0, 1]");
         }
     }
     let placeholder = ElasticModel::LinearElastic(Lame {
@@ -637,13 +640,13 @@ fn validate<const D: usize>(
             _ if !used => models.push(placeholder),
             Material::Solid(_) => {
                 return invalid(
-                    "material.plasticity",
+                    MATERIAL_PLASTICITY,
                     k as Real,
                     "plastic solids need A-ULMPM reference updates (reference_update)",
                 );
             }
             Material::Fluid(_) => {
-                return invalid("material.kind", k as Real, "TLMPM supports solids only");
+                return invalid(MATERIAL_KIND, k as Real, "TLMPM supports solids only");
             }
         }
         if used && particles.def_grad.is_none() {
@@ -662,10 +665,10 @@ fn validate<const D: usize>(
     for (p, &material) in particles.material.iter().enumerate() {
         let (m, v) = (particles.mass[p], particles.volume0[p]);
         if !(m > 0.0 && m.is_finite()) {
-            return invalid("particle.mass", m, "must be positive and finite");
+            return invalid(PARTICLE_MASS, m, "must be positive and finite");
         }
         if !(v > 0.0 && v.is_finite()) {
-            return invalid("particle.volume0", v, "must be positive and finite");
+            return invalid(PARTICLE_VOLUME0, v, "must be positive and finite");
         }
         if material as usize >= materials.len() {
             return Err(SetupError::UnknownMaterial {
