@@ -34,7 +34,7 @@ fn fixed_dt<const D: usize>(solver: &ExplicitSolver<D>) -> f64
 where
     Dim<D>: DimOps<D>,
 {
-    match solver.params().time_step {
+    match solver.params().step.time_step {
         TimeStepPolicy::Fixed { dt } => dt,
         TimeStepPolicy::Adaptive { .. } => unreachable!("benchmark scenes use a fixed dt"),
     }

@@ -17,7 +17,8 @@ use criterion::{BenchmarkGroup, Criterion, SamplingMode, Throughput};
 use mpm_benches::jelly;
 use mpm_core::solver::StageTime;
 use mpm_core::{
-    Body, Columns, GridSpec, Matrix, ParticlesBuilder, Real, Shape, Solver, TimeStepPolicy, Vector,
+    Body, Columns, GridSpec, Matrix, ParticlesBuilder, Real, Shape, Solver, StepControl,
+    TimeStepPolicy, Vector,
 };
 use mpm_tlmpm::{ImplicitParams, ImplicitTlmpm, NewtonParams, TlmpmParams};
 use std::hint::black_box;
@@ -66,8 +67,11 @@ fn scene(cells: usize, newton: NewtonParams) -> ImplicitTlmpm<2> {
         .expect("the block lies inside the grid")
         .build();
     let params = TlmpmParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
-        time_step: TimeStepPolicy::Fixed { dt: DT },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            time_step: TimeStepPolicy::Fixed { dt: DT },
+            ..StepControl::default()
+        },
         ..TlmpmParams::default()
     };
     ImplicitTlmpm::new(

@@ -22,7 +22,8 @@
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
 use mpm_core::{
-    Body, Dim, DimOps, GridSpec, Material, ParticlesBuilder, Real, Shape, TimeStepPolicy, Vector,
+    Body, Dim, DimOps, GridSpec, Material, ParticlesBuilder, Real, Shape, StepControl,
+    TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 
@@ -148,9 +149,11 @@ where
     let mut gravity = Vector::<D>::zeros();
     gravity[1] = -GRAVITY;
     let params = ExplicitParams {
-        gravity,
-        // Placeholder; replaced below once the solver can evaluate its stable bound.
-        time_step: TimeStepPolicy::Fixed { dt: 1e-6 },
+        step: StepControl {
+            gravity,
+            time_step: TimeStepPolicy::Fixed { dt: 1e-6 },
+            ..StepControl::default()
+        },
         ..ExplicitParams::default()
     };
     let boundaries = Boundaries {
@@ -175,7 +178,10 @@ where
     let dt = DT_FRACTION * probe.stable_dt();
     assert!(dt.is_finite() && dt > 0.0, "stable dt {dt}");
     let params = ExplicitParams {
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..params.step
+        },
         ..params
     };
     ExplicitSolver::new(spec, params, materials, boundaries, particles)

@@ -34,8 +34,8 @@ mod seam;
 mod tests;
 
 use mpm_core::{
-    Dim, DimOps, GridSpec, Material, OnInstability, Particles, Real, SetupError, StagePlan,
-    StageTimes, TimeStepPolicy, Vector,
+    Dim, DimOps, GridSpec, Material, Particles, Real, SetupError, StagePlan, StageTimes,
+    StepControl, Vector,
 };
 
 pub use flight::fly;
@@ -46,6 +46,14 @@ pub mod stages {
 
     /// Exact free flight of every particle with its wall bounces.
     pub const FLIGHT: Stage = Stage::new("flight");
+}
+
+/// The parameters the ballistic solver checks beyond [`mpm_core::parameters`].
+pub mod parameters {
+    mpm_core::declare_parameters! {
+        /// Coefficient of restitution of the walls (dimensionless, in [0, 1]).
+        RESTITUTION = "restitution";
+    }
 }
 
 /// The output fields the ballistic solver computes beyond the particle columns and `pressure`.
@@ -62,26 +70,22 @@ pub const DISSIPATED_ENERGY: &str = "dissipated";
 /// Parameters of [`Ballistic`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct BallisticParams<const D: usize> {
-    /// Gravitational acceleration (m/s²); −9.81 on the last axis by default.
-    pub gravity: Vector<D>,
+    /// Gravity (m/s²; −9.81 on the last axis by default), time step and the reaction to
+    /// instability. There is no gravity ramp and no damping. The flight is exact for any step:
+    /// the adaptive bound only keeps a particle from crossing more than `cfl` cells per step
+    /// (for smooth output).
+    pub step: StepControl<D>,
     /// Coefficient of restitution `e` of the walls (dimensionless, in [0, 1]; 1 by default).
     pub restitution: Real,
-    /// Time-step policy: the flight is exact for any step, so the adaptive bound only keeps a
-    /// particle from crossing more than `cfl` cells per step (for smooth output).
-    pub time_step: TimeStepPolicy,
-    /// Reaction to a failed guard check (a non-finite position).
-    pub on_instability: OnInstability,
 }
 
 impl<const D: usize> Default for BallisticParams<D> {
     fn default() -> Self {
-        let mut gravity = Vector::<D>::zeros();
-        gravity[D - 1] = -9.81;
+        let mut step = StepControl::default();
+        step.gravity[D - 1] = -9.81;
         Self {
-            gravity,
+            step,
             restitution: 1.0,
-            time_step: TimeStepPolicy::default(),
-            on_instability: OnInstability::Abort,
         }
     }
 }
@@ -105,8 +109,8 @@ where
     Dim<D>: DimOps<D>,
 {
     /// A solver for `particles` inside the box of `spec`, at time 0. Errors: a restitution
-    /// outside [0, 1], non-finite gravity, an invalid time-step policy, a particle outside the
-    /// box or naming a material that does not exist.
+    /// outside [0, 1], non-finite gravity, a gravity ramp or damping, an invalid time-step
+    /// policy, a particle outside the box or naming a material that does not exist.
     pub fn new(
         spec: GridSpec<D>,
         params: BallisticParams<D>,
@@ -116,19 +120,23 @@ where
         let e = params.restitution;
         if !(0.0..=1.0).contains(&e) {
             return Err(SetupError::InvalidParameter {
-                name: "restitution",
+                name: parameters::RESTITUTION,
                 value: e,
                 reason: "must lie in [0, 1]",
             });
         }
-        if let Some(g) = params.gravity.iter().find(|g| !g.is_finite()) {
+        if let Some(g) = params.step.gravity.iter().find(|g| !g.is_finite()) {
             return Err(SetupError::InvalidParameter {
-                name: "gravity",
+                name: mpm_core::parameters::GRAVITY,
                 value: *g,
                 reason: "must be finite",
             });
         }
-        params.time_step.validate()?;
+        params.step.refuse_ramp_and_damping(
+            "the ballistic flight is exact only under constant gravity",
+            "the ballistic solver has no damping",
+        )?;
+        params.step.time_step.validate()?;
         let (lo, hi) = bounds(&spec);
         for (index, x) in particles.x.iter().enumerate() {
             if (0..D).any(|a| !(x[a] >= lo[a] && x[a] <= hi[a])) {

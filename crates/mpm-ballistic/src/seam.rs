@@ -18,7 +18,7 @@ where
 {
     /// The step (s) the policy gives at the current state.
     fn time_step(&self) -> Real {
-        match self.params.time_step {
+        match self.params.step.time_step {
             TimeStepPolicy::Fixed { dt } => dt,
             TimeStepPolicy::Adaptive { cfl, dt_max, .. } => (cfl * self.stable_dt()).min(dt_max),
         }
@@ -27,7 +27,7 @@ where
     /// Flies every particle for `dt` (s), in particle order; returns the energy (J) dissipated.
     fn flight(&mut self, dt: Real) -> Real {
         let (lo, hi) = bounds(&self.spec);
-        let (g, e) = (self.params.gravity, self.params.restitution);
+        let (g, e) = (self.params.step.gravity, self.params.restitution);
         let p = &mut self.particles;
         let mut lost = 0.0;
         for i in 0..p.len() {
@@ -109,8 +109,13 @@ where
     }
 
     fn diagnostics(&self) -> Diagnostics<D> {
-        Diagnostics::compute(&self.particles, &self.materials, None, &self.params.gravity)
-            .with_energy(DISSIPATED_ENERGY, self.dissipated)
+        Diagnostics::compute(
+            &self.particles,
+            &self.materials,
+            None,
+            &self.params.step.gravity,
+        )
+        .with_energy(DISSIPATED_ENERGY, self.dissipated)
     }
 
     fn plan(&self) -> StagePlan {

@@ -23,7 +23,7 @@ fn one(x0: [f64; 2], v0: [f64; 2], e: f64, dt: Option<f64>) -> Ballistic<2> {
         ..BallisticParams::default()
     };
     if let Some(dt) = dt {
-        params.time_step = TimeStepPolicy::Fixed { dt };
+        params.step.time_step = TimeStepPolicy::Fixed { dt };
     }
     let materials = vec![Material::fluid(1000.0, 2e5, 0.0)];
     Ballistic::new(spec, params, materials, particles).expect("a valid set-up")
@@ -127,7 +127,8 @@ fn a_restitution_outside_zero_to_one_is_refused() {
     };
     let err = Ballistic::new(spec, params, Vec::new(), Particles::new(Columns::default()));
     assert!(
-        matches!(err, Err(mpm_core::SetupError::InvalidParameter { name: "restitution", value, .. }) if value == 1.5),
+        matches!(err, Err(mpm_core::SetupError::InvalidParameter { name, value, .. })
+            if name == crate::parameters::RESTITUTION && value == 1.5),
         "{err:?}"
     );
 }

@@ -47,6 +47,34 @@ impl fmt::Display for Stage {
     }
 }
 
+/// The name of a solver parameter, as [`SetupError::InvalidParameter`] reports it (e.g.
+/// `flip blend`, `pressure.rel_tol`). Every crate that checks parameters declares the names it
+/// raises as constants of its `parameters` module (with [`crate::declare_parameters!`], which
+/// also lists them in `parameters::ALL`), and raises only those, so a program that maps the
+/// names to its own keys (the CLI maps them to scene keys) refers to the constants and a
+/// renamed or removed parameter is a compile error there. The ones `mpm-core` raises are in
+/// [`crate::parameters`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Parameter(&'static str);
+
+impl Parameter {
+    /// The parameter called `name` in error messages; for `parameters` modules.
+    pub const fn new(name: &'static str) -> Self {
+        Self(name)
+    }
+
+    /// The name in error messages.
+    pub const fn name(self) -> &'static str {
+        self.0
+    }
+}
+
+impl fmt::Display for Parameter {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.0)
+    }
+}
+
 /// What a guard check found.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Violation {
@@ -135,8 +163,8 @@ pub enum SetupError {
     /// A parameter is out of its valid range.
     #[error("invalid parameter `{name}` = {value}: {reason}")]
     InvalidParameter {
-        /// Parameter name.
-        name: &'static str,
+        /// Parameter name: a constant of the raising crate's `parameters` module.
+        name: Parameter,
         /// Its value.
         value: Real,
         /// Why it is rejected.
@@ -168,11 +196,13 @@ pub enum SetupError {
         /// Column name.
         column: &'static str,
     },
-    /// A multi-grid setting (phases, couplings, porous interaction, mixing, dissolution) is
-    /// inconsistent with the materials or particles.
+    /// A setting (e.g. the phases, couplings, porous interaction, mixing or dissolution of the
+    /// explicit solver, the walls of the DIQ fluid, a TLMPM load) is inconsistent with the
+    /// materials, particles or grid.
     #[error("invalid {setting}: {reason}")]
     InvalidSetting {
-        /// The setting, e.g. `coupling 0` or `mixing`.
+        /// The setting, e.g. `coupling 0` or `mixing`: a constant or function of the raising
+        /// crate's `settings` module.
         setting: String,
         /// Why it is rejected.
         reason: String,

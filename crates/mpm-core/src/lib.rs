@@ -37,6 +37,7 @@ pub mod material;
 pub mod math;
 pub mod mirror;
 pub mod neighbors;
+pub mod parameters;
 pub mod particles;
 pub mod prefetch;
 pub mod prelude;
@@ -44,8 +45,9 @@ pub mod quasistatic;
 pub mod sampling;
 pub mod scatter;
 pub mod solver;
+pub mod step_control;
 
-pub use error::{Instability, Location, SetupError, Stage, Violation};
+pub use error::{Instability, Location, Parameter, SetupError, Stage, Violation};
 pub use grid::{GridNodes, GridSpec, NodeLayout, StencilRange};
 pub use kernel::{AxisStencil, Kernel, Stencil};
 pub use material::Material;
@@ -65,4 +67,5 @@ pub use solver::{
     on_pool, reached, retry_halving, run_until_with, Failure, Monitor, PlannedStage, RunInfo,
     SolveInfo, Solver, SolverState, StagePlan, StageTimes, StepError, StepInfo, StepStart,
 };
+pub use step_control::StepControl;
 pub use timestep::{OnInstability, TimeStepPolicy};

@@ -2,7 +2,9 @@
 //! ramp (the geostatic initial stress is in [`crate::geostatic`]). Solvers apply them at their
 //! grid update; a solver whose parameters leave them off runs no extra arithmetic.
 
+use crate::error::Parameter;
 use crate::math::{Real, Vector};
+use crate::parameters::{GRAVITY_RAMP, LOCAL_DAMPING, VISCOUS_DAMPING};
 use serde::{Deserialize, Serialize};
 
 /// Damping of the unbalanced nodal force `f_i` (N) of a node of mass `m_i` (kg) whose velocity
@@ -29,6 +31,18 @@ impl Damping {
     /// Whether neither damping is on.
     pub fn is_off(&self) -> bool {
         self.local == 0.0 && self.viscous == 0.0
+    }
+
+    /// The parameter name and value of the first damping that is on (local before viscous),
+    /// for a solver that has no damping to name what it rejects; `None` when both are off.
+    pub fn first_on(&self) -> Option<(Parameter, Real)> {
+        if self.local != 0.0 {
+            Some((LOCAL_DAMPING, self.local))
+        } else if self.viscous != 0.0 {
+            Some((VISCOUS_DAMPING, self.viscous))
+        } else {
+            None
+        }
     }
 
     /// The damped velocity (m/s) after a step of `dt` (s) of a node of mass `m` (kg) with
@@ -58,15 +72,11 @@ impl Damping {
 
     /// `None` when the damping is off, else the reason a value is out of range: the parameter
     /// name and the reason.
-    pub fn invalid(&self) -> Option<(&'static str, Real, &'static str)> {
+    pub fn invalid(&self) -> Option<(Parameter, Real, &'static str)> {
         if !(self.local.is_finite() && (0.0..1.0).contains(&self.local)) {
-            Some(("local damping", self.local, "must lie in [0, 1)"))
+            Some((LOCAL_DAMPING, self.local, "must lie in [0, 1)"))
         } else if !(self.viscous.is_finite() && self.viscous >= 0.0) {
-            Some((
-                "viscous damping",
-                self.viscous,
-                "must be a finite rate >= 0",
-            ))
+            Some((VISCOUS_DAMPING, self.viscous, "must be a finite rate >= 0"))
         } else {
             None
         }
@@ -82,6 +92,16 @@ pub struct GravityRamp {
 }
 
 impl GravityRamp {
+    /// `None` when the duration is a positive finite time, else the parameter, its value and
+    /// the reason.
+    pub fn invalid(&self) -> Option<(Parameter, Real, &'static str)> {
+        (!(self.duration > 0.0 && self.duration.is_finite())).then_some((
+            GRAVITY_RAMP,
+            self.duration,
+            "must be a positive finite time",
+        ))
+    }
+
     /// The gravity (m/s²) at time `t` (s): `g · min(t/T, 1)` (zero for t ≤ 0).
     pub fn gravity<const D: usize>(&self, full: &Vector<D>, t: Real) -> Vector<D> {
         if t >= self.duration {
@@ -149,11 +169,11 @@ mod tests {
     fn out_of_range_damping_is_named() {
         assert!(Damping::default().is_off() && Damping::default().invalid().is_none());
         for (d, name) in [
-            ((1.0, 0.0), "local damping"),
-            ((-0.1, 0.0), "local damping"),
-            ((Real::NAN, 0.0), "local damping"),
-            ((0.0, -1.0), "viscous damping"),
-            ((0.0, Real::INFINITY), "viscous damping"),
+            ((1.0, 0.0), LOCAL_DAMPING),
+            ((-0.1, 0.0), LOCAL_DAMPING),
+            ((Real::NAN, 0.0), LOCAL_DAMPING),
+            ((0.0, -1.0), VISCOUS_DAMPING),
+            ((0.0, Real::INFINITY), VISCOUS_DAMPING),
         ] {
             let d = Damping {
                 local: d.0,
@@ -173,5 +193,10 @@ mod tests {
         assert_eq!(r.gravity(&g, 7.0), g);
         assert_eq!(gravity_at(&g, None, 0.0), g);
         assert_eq!(gravity_at(&g, Some(&r), 0.1), r.gravity(&g, 0.1));
+        assert!(r.invalid().is_none());
+        for duration in [0.0, -1.0, Real::NAN, Real::INFINITY] {
+            let bad = GravityRamp { duration }.invalid().map(|e| e.0);
+            assert_eq!(bad, Some(GRAVITY_RAMP), "{duration}");
+        }
     }
 }

@@ -2,6 +2,7 @@
 
 use crate::error::{Location, SetupError, Violation};
 use crate::math::Real;
+use crate::parameters::{CFL, DT, DT_MAX};
 use serde::{Deserialize, Serialize};
 
 /// How the time step is chosen.
@@ -50,15 +51,15 @@ impl TimeStepPolicy {
         };
         match *self {
             TimeStepPolicy::Fixed { dt } if !(dt > 0.0 && dt.is_finite()) => {
-                invalid("dt", dt, "must be positive and finite")
+                invalid(DT, dt, "must be positive and finite")
             }
             TimeStepPolicy::Adaptive { cfl, .. } if !(cfl > 0.0 && cfl.is_finite()) => {
-                invalid("cfl", cfl, "must be positive and finite")
+                invalid(CFL, cfl, "must be positive and finite")
             }
             TimeStepPolicy::Adaptive { dt_max, dt_min, .. }
                 if !(dt_max > 0.0 && dt_max >= dt_min) =>
             {
-                invalid("dt_max", dt_max, "must be positive and at least dt_min")
+                invalid(DT_MAX, dt_max, "must be positive and at least dt_min")
             }
             _ => Ok(()),
         }

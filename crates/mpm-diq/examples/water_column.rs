@@ -19,10 +19,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .with(&column)?
         .build();
     let params = DiqParams {
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.4,
-            dt_max: 1e-2,
-            dt_min: 1e-9,
+        step: StepControl {
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.4,
+                dt_max: 1e-2,
+                dt_min: 1e-9,
+            },
+            ..DiqParams::default().step
         },
         ..DiqParams::default()
     };

@@ -43,7 +43,9 @@
 pub mod coupled;
 pub mod domain;
 pub mod fluid;
+pub mod parameters;
 pub mod pressure;
+pub mod settings;
 pub mod viscosity;
 
 pub use coupled::{

@@ -17,7 +17,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .with(&column)?
         .build();
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            ..StepControl::default()
+        },
         ..ExplicitParams::default()
     };
     let walls = Boundaries::slip_walls(3);

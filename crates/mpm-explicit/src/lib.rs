@@ -22,7 +22,8 @@
 //! let materials = vec![Material::neo_hookean(1000.0, 1e5, 0.3)];
 //! let block = Body::new(Shape::cuboid([0.3, 0.3], [0.5, 0.5]), 0);
 //! let particles = ParticlesBuilder::new(&spec, &materials).with(&block).unwrap().build();
-//! let params = ExplicitParams { gravity: Vector::<2>::new(0.0, -9.81), ..Default::default() };
+//! let step = StepControl { gravity: Vector::<2>::new(0.0, -9.81), ..Default::default() };
+//! let params = ExplicitParams { step, ..Default::default() };
 //! let mut solver =
 //!     ExplicitSolver::new(spec, params, materials, Boundaries::slip_walls(3), particles).unwrap();
 //! let mass = solver.diagnostics().mass;
@@ -43,8 +44,10 @@ mod materials;
 mod mixing;
 pub mod multigrid;
 mod p2g;
+pub mod parameters;
 mod params;
 mod plan;
+pub mod settings;
 mod solver;
 pub mod stages;
 mod validate;

@@ -1,8 +1,7 @@
 //! Parameters of the explicit MLS-MPM solver.
 
 use crate::multigrid::{Dissolution, Mixing, Phases, Porous};
-use mpm_core::quasistatic::{Damping, GravityRamp};
-use mpm_core::{Kernel, OnInstability, Real, TimeStepPolicy, Vector};
+use mpm_core::{Kernel, Real, StepControl, Vector};
 use serde::{Deserialize, Serialize};
 
 /// Particle–grid velocity transfer.
@@ -55,16 +54,10 @@ pub struct ExplicitParams<const D: usize> {
     pub kernel: Kernel,
     /// Velocity transfer scheme.
     pub transfer: Transfer,
-    /// Gravitational acceleration (m/s²).
-    pub gravity: Vector<D>,
-    /// Gravity ramp from zero at t = 0 (full gravity from the start when `None`).
-    pub gravity_ramp: Option<GravityRamp>,
-    /// Damping of the nodal forces in the grid update (off by default).
-    pub damping: Damping,
-    /// Time-step policy.
-    pub time_step: TimeStepPolicy,
-    /// Reaction to a failed guard check.
-    pub on_instability: OnInstability,
+    /// Gravity, time step, damping and the reaction to instability. The adaptive bound is
+    /// `cfl · Δx / max_p (|v_p| + c_p)`, capped by the viscous limit; damping acts on the
+    /// nodal forces in the grid update.
+    pub step: StepControl<D>,
     /// Fluid volume update.
     pub volume: VolumeUpdate,
     /// Predictive softened walls, if any.
@@ -86,11 +79,7 @@ impl<const D: usize> Default for ExplicitParams<D> {
         Self {
             kernel: Kernel::Quadratic,
             transfer: Transfer::Apic,
-            gravity: Vector::<D>::zeros(),
-            gravity_ramp: None,
-            damping: Damping::default(),
-            time_step: TimeStepPolicy::default(),
-            on_instability: OnInstability::Abort,
+            step: StepControl::default(),
             volume: VolumeUpdate::Deformation,
             soft_walls: None,
             body_force: None,

@@ -22,7 +22,9 @@ where
     let mut plan = StagePlan::default();
     plan.push(
         Stage::TIME_STEP,
-        p.time_step.describe("dx / max(|v| + c), viscous limit"),
+        p.step
+            .time_step
+            .describe("dx / max(|v| + c), viscous limit"),
     );
     let b = mpm_core::NodeLayout::<D>::BLOCK;
     plan.push(
@@ -69,15 +71,15 @@ where
         ),
     );
     let boundaries = boundary_text(solver.boundaries());
-    let mut forces = format!("velocities, gravity {:?} m/s^2", p.gravity.as_slice());
-    if let Some(r) = p.gravity_ramp {
+    let mut forces = format!("velocities, gravity {:?} m/s^2", p.step.gravity.as_slice());
+    if let Some(r) = p.step.gravity_ramp {
         forces += &format!(" ramped from 0 over {} s", r.duration);
     }
-    if p.damping.local > 0.0 {
-        forces += &format!("; local damping alpha = {}", p.damping.local);
+    if p.step.damping.local > 0.0 {
+        forces += &format!("; local damping alpha = {}", p.step.damping.local);
     }
-    if p.damping.viscous > 0.0 {
-        forces += &format!("; viscous damping {} 1/s", p.damping.viscous);
+    if p.step.damping.viscous > 0.0 {
+        forces += &format!("; viscous damping {} 1/s", p.step.damping.viscous);
     }
     if !solver.multigrid() {
         forces += &format!("; boundaries: {boundaries}");
@@ -154,7 +156,7 @@ where
         );
     }
     g2p += "; written in place";
-    if matches!(p.on_instability, OnInstability::Retry { .. }) {
+    if matches!(p.step.on_instability, OnInstability::Retry { .. }) {
         g2p += " (x, v, C, F/J and plastic state saved before each attempt for dt/2 retries)";
     }
     plan.push(Stage::G2P, g2p);

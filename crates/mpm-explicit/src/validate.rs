@@ -2,7 +2,9 @@
 //! stencils inside the grid, and the multi-grid settings consistent with the materials.
 
 use crate::multigrid::{CouplingKind, DiffusionScheme, Drag, EffectiveFraction, Friction};
+use crate::parameters::{FLIP_BLEND, GRID_DX, GRID_SIZE, SOFT_WALLS_LOOKAHEAD};
 use crate::params::{ExplicitParams, Transfer};
+use crate::settings::{self, DISSOLUTION, MIXING, PHASES, POROUS};
 use mpm_core::{GridSpec, Material, Particles, Real, SetupError};
 
 /// Checks the set-up of [`crate::ExplicitSolver::new`].
@@ -20,29 +22,27 @@ pub(crate) fn validate<const D: usize>(
         })
     };
     if !(spec.dx > 0.0 && spec.dx.is_finite()) {
-        return invalid("grid.dx", spec.dx, "must be positive and finite");
+        return invalid(GRID_DX, spec.dx, "must be positive and finite");
     }
     if let Some(&n) = spec.size.iter().find(|&&n| n < params.kernel.support() + 1) {
-        return invalid("grid.size", n as Real, "too few nodes for the kernel");
+        return invalid(GRID_SIZE, n as Real, "too few nodes for the kernel");
     }
-    params.time_step.validate()?;
+    params.step.time_step.validate()?;
     if let Transfer::Flip { blend } = params.transfer {
         if !(0.0..=1.0).contains(&blend) {
-            return invalid("flip blend", blend, "must lie in [0, 1]");
+            return invalid(FLIP_BLEND, blend, "must lie in [0, 1]");
         }
     }
     if let Some(sw) = params.soft_walls {
         if !(sw.lookahead > 0.0 && sw.margin >= 0.0) {
-            return invalid("soft_walls.lookahead", sw.lookahead, "must be positive");
+            return invalid(SOFT_WALLS_LOOKAHEAD, sw.lookahead, "must be positive");
         }
     }
-    if let Some((name, value, reason)) = params.damping.invalid() {
+    if let Some((name, value, reason)) = params.step.damping.invalid() {
         return invalid(name, value, reason);
     }
-    if let Some(r) = params.gravity_ramp {
-        if !(r.duration > 0.0 && r.duration.is_finite()) {
-            return invalid("gravity ramp", r.duration, "must be a positive finite time");
-        }
+    if let Some((name, value, reason)) = params.step.gravity_ramp.and_then(|r| r.invalid()) {
+        return invalid(name, value, reason);
     }
     let columns = particles.columns();
     for (k, m) in materials.iter().enumerate() {
@@ -102,17 +102,17 @@ fn validate_multigrid<const D: usize>(
     let count = params.phases.count;
     let columns = particles.columns();
     if count == 0 {
-        return fail("phases", "there must be at least one phase".into());
+        return fail(PHASES, "there must be at least one phase".into());
     }
     if count > 1 && !columns.phase {
         return fail(
-            "phases",
+            PHASES,
             format!("{count} phases need the particle column `phase`"),
         );
     }
     if let Some(p) = (0..particles.len()).find(|&p| particles.phase_of(p) >= count) {
         return fail(
-            "phases",
+            PHASES,
             format!(
                 "particle {p} is in phase {}, but only {count} exist",
                 particles.phase_of(p)
@@ -121,7 +121,7 @@ fn validate_multigrid<const D: usize>(
     }
     let nonneg = |x: Real| x >= 0.0 && x.is_finite();
     for (n, c) in params.phases.couplings.iter().enumerate() {
-        let name = format!("coupling {n}");
+        let name = settings::coupling(n);
         let [a, b] = c.phases;
         if a == b || a >= count || b >= count {
             return fail(
@@ -158,27 +158,27 @@ fn validate_multigrid<const D: usize>(
     if let Some(porous) = &params.porous {
         if count < 2 {
             return fail(
-                "porous",
+                POROUS,
                 "porous interaction needs at least two phases".into(),
             );
         }
         if !columns.volume_fraction {
-            return fail("porous", "needs the particle column `phi_eff`".into());
+            return fail(POROUS, "needs the particle column `phi_eff`".into());
         }
         if let EffectiveFraction::Relax { rate } | EffectiveFraction::MaxRelax { rate } =
             porous.update
         {
             if !nonneg(rate) {
-                return fail("porous", format!("relaxation rate {rate} must be >= 0"));
+                return fail(POROUS, format!("relaxation rate {rate} must be >= 0"));
             }
         }
         for it in &porous.interactions {
             let Some(m) = materials.get(it.material as usize) else {
-                return fail("porous", format!("unknown material {}", it.material));
+                return fail(POROUS, format!("unknown material {}", it.material));
             };
             if !it.parameter.applies_to(m) {
                 return fail(
-                    "porous",
+                    POROUS,
                     format!(
                         "material {} has no parameter {:?}",
                         it.material, it.parameter
@@ -190,7 +190,7 @@ fn validate_multigrid<const D: usize>(
                 && it.scaling.slope.is_finite())
             {
                 return fail(
-                    "porous",
+                    POROUS,
                     "scaling needs exponent > 0 and finite offset and slope".into(),
                 );
             }
@@ -199,18 +199,18 @@ fn validate_multigrid<const D: usize>(
     if let Some(mix) = &params.mixing {
         for k in mix.fluids {
             if !matches!(materials.get(k as usize), Some(Material::Fluid(_))) {
-                return fail("mixing", format!("material {k} is not a fluid"));
+                return fail(MIXING, format!("material {k} is not a fluid"));
             }
         }
         if mix.fluids[0] == mix.fluids[1] {
-            return fail("mixing", "the two fluids must differ".into());
+            return fail(MIXING, "the two fluids must differ".into());
         }
         if !columns.concentration {
-            return fail("mixing", "needs the particle column `concentration`".into());
+            return fail(MIXING, "needs the particle column `concentration`".into());
         }
         if !nonneg(mix.diffusivity) {
             return fail(
-                "mixing",
+                MIXING,
                 format!("diffusivity {} must be >= 0", mix.diffusivity),
             );
         }
@@ -218,7 +218,7 @@ fn validate_multigrid<const D: usize>(
             && params.kernel.mls_inertia_inv(1.0).is_none()
         {
             return fail(
-                "mixing",
+                MIXING,
                 "the MLS difference scheme needs a quadratic or cubic kernel".into(),
             );
         }
@@ -228,7 +228,7 @@ fn validate_multigrid<const D: usize>(
         if let Some(first) = phases.next() {
             if phases.any(|k| k != first) {
                 return fail(
-                    "mixing",
+                    MIXING,
                     "all particles of the two fluids must be in one phase".into(),
                 );
             }
@@ -236,26 +236,23 @@ fn validate_multigrid<const D: usize>(
     }
     if let Some(d) = &params.dissolution {
         if !matches!(materials.get(d.solid as usize), Some(Material::Solid(_))) {
-            return fail(
-                "dissolution",
-                format!("material {} is not a solid", d.solid),
-            );
+            return fail(DISSOLUTION, format!("material {} is not a solid", d.solid));
         }
         if params.mixing.is_none_or(|m| m.fluids[1] != d.into) {
             return fail(
-                "dissolution",
+                DISSOLUTION,
                 format!("material {} must be the second fluid of the mixing", d.into),
             );
         }
         if d.fluid_phase >= count || !nonneg(d.rate) {
             return fail(
-                "dissolution",
+                DISSOLUTION,
                 "needs an existing fluid phase and a rate >= 0".into(),
             );
         }
         if !columns.concentration {
             return fail(
-                "dissolution",
+                DISSOLUTION,
                 "needs the particle column `concentration`".into(),
             );
         }
@@ -263,7 +260,7 @@ fn validate_multigrid<const D: usize>(
         if let Some(p) = (0..particles.len()).find(|&p| fluids.contains(&particles.material[p])) {
             if particles.phase_of(p) != d.fluid_phase {
                 return fail(
-                    "dissolution",
+                    DISSOLUTION,
                     format!(
                         "the mixing fluids must be in the solvent phase {}",
                         d.fluid_phase

@@ -7,7 +7,7 @@ use common::{fill_box, jelly, water, with_threads};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
 use mpm_core::material::{FluidMaterial, Interaction, Parameter, Scaling, Tait};
 use mpm_core::{
-    Columns, Dim, DimOps, GridSpec, Kernel, Material, Matrix, Particles, Real, Solver,
+    Columns, Dim, DimOps, GridSpec, Kernel, Material, Matrix, Particles, Real, Solver, StepControl,
     TimeStepPolicy, Vector,
 };
 use mpm_explicit::{
@@ -78,8 +78,11 @@ fn solver(
     gravity: Real,
 ) -> ExplicitSolver<2> {
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(0.0, gravity),
-        time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, gravity),
+            time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+            ..StepControl::default()
+        },
         phases,
         ..ExplicitParams::default()
     };
@@ -313,7 +316,10 @@ where
         }
     }
     let params = ExplicitParams {
-        time_step: TimeStepPolicy::Fixed { dt: 1e-3 },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt: 1e-3 },
+            ..StepControl::default()
+        },
         mixing: Some(Mixing {
             fluids: [0, 1],
             diffusivity: 1e-3,
@@ -394,8 +400,11 @@ fn porous_interaction_wets_the_solid_and_scales_its_parameters() {
     );
     particles.phase.as_mut().unwrap()[n_solid..].fill(1);
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
-        time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+            ..StepControl::default()
+        },
         phases: Phases {
             count: 2,
             couplings: vec![coupling(CouplingKind::Drag(Drag::Coefficient(1e30)))],
@@ -488,8 +497,11 @@ fn dissolution_scene_with(kind: CouplingKind) -> (ExplicitSolver<2>, usize) {
     );
     particles.phase.as_mut().unwrap()[n_solid..].fill(1);
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
-        time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+            ..StepControl::default()
+        },
         phases: Phases {
             count: 2,
             couplings: vec![coupling(kind)],
@@ -600,7 +612,10 @@ fn viscous_shear_mode_decays_at_the_analytic_rate() {
     );
     let dt = 2e-4;
     let params = ExplicitParams {
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         ..ExplicitParams::default()
     };
     let mut s =

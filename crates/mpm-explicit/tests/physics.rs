@@ -7,7 +7,7 @@ use common::{fill_box, jelly, particles_for, water, with_threads};
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::{
     run_until_with, ColumnData, Dim, DimOps, GridSpec, Kernel, Matrix, OnInstability, Real, Solver,
-    Stage, StepError, TimeStepPolicy, Vector, Violation,
+    Stage, StepControl, StepError, TimeStepPolicy, Vector, Violation,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver, SoftWalls, Transfer, VolumeUpdate};
 
@@ -59,8 +59,11 @@ where
     let params = ExplicitParams {
         kernel,
         transfer,
-        gravity,
-        time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+        step: StepControl {
+            gravity,
+            time_step: TimeStepPolicy::Fixed { dt: 2e-4 },
+            ..StepControl::default()
+        },
         ..ExplicitParams::default()
     };
     ExplicitSolver::new(spec, params, materials, Boundaries::default(), particles).unwrap()
@@ -158,8 +161,9 @@ fn free_fall_centre_of_mass_is_exact() {
     }
     // Symplectic Euler: x_n = x₀ + n dt v₀ + g dt² n(n+1)/2.
     let dt = 2e-4;
-    let expected =
-        c0 + v0 * (n as Real * dt) + s.params().gravity * (dt * dt * (n * (n + 1)) as Real / 2.0);
+    let expected = c0
+        + v0 * (n as Real * dt)
+        + s.params().step.gravity * (dt * dt * (n * (n + 1)) as Real / 2.0);
     assert!(
         (com(&s) - expected).norm() < 1e-13,
         "{:e}",
@@ -183,11 +187,14 @@ fn dam_break_energy_does_not_grow() {
         |_| (Vector::<2>::zeros(), Matrix::<2>::zeros()),
     );
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.4,
-            dt_max: 1e-3,
-            dt_min: 1e-9,
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.4,
+                dt_max: 1e-3,
+                dt_min: 1e-9,
+            },
+            ..StepControl::default()
         },
         ..ExplicitParams::default()
     };
@@ -248,7 +255,10 @@ fn serial_and_parallel_steps_are_bitwise_equal() {
                 |_| (Vector::<2>::new(-1.0, 0.0), Matrix::<2>::zeros()),
             );
             let params = ExplicitParams {
-                gravity: Vector::<2>::new(0.0, -9.81),
+                step: StepControl {
+                    gravity: Vector::<2>::new(0.0, -9.81),
+                    ..StepControl::default()
+                },
                 ..ExplicitParams::default()
             };
             let walls = Boundaries {
@@ -298,8 +308,11 @@ fn instability_abort_and_retry() {
             move |_| (Vector::<2>::new(v, 0.0), Matrix::<2>::zeros()),
         );
         let params = ExplicitParams {
-            time_step: TimeStepPolicy::Fixed { dt: step },
-            on_instability: policy,
+            step: StepControl {
+                time_step: TimeStepPolicy::Fixed { dt: step },
+                on_instability: policy,
+                ..StepControl::default()
+            },
             ..ExplicitParams::default()
         };
         ExplicitSolver::new(spec, params, materials, Boundaries::default(), particles).unwrap()
@@ -348,7 +361,10 @@ fn volume_reestimation_recovers_rest_volume() {
     }
     let params = ExplicitParams {
         volume: VolumeUpdate::Reestimate,
-        time_step: TimeStepPolicy::Fixed { dt: 1e-6 },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt: 1e-6 },
+            ..StepControl::default()
+        },
         ..ExplicitParams::default()
     };
     let mut s =
@@ -386,7 +402,10 @@ fn soft_walls_stop_particles_before_the_wall() {
         lookahead: 0.02,
     };
     let params = ExplicitParams {
-        time_step: TimeStepPolicy::Fixed { dt: 1e-4 },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt: 1e-4 },
+            ..StepControl::default()
+        },
         soft_walls: Some(sw),
         ..ExplicitParams::default()
     };
@@ -474,11 +493,14 @@ fn adaptive_dt_from_g2p_equals_the_particle_scan() {
         |_| (Vector::<2>::new(0.0, -3.0), Matrix::<2>::zeros()),
     );
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.4,
-            dt_max: 1.0,
-            dt_min: 1e-9,
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.4,
+                dt_max: 1.0,
+                dt_min: 1e-9,
+            },
+            ..StepControl::default()
         },
         ..ExplicitParams::default()
     };

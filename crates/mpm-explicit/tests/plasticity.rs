@@ -6,7 +6,7 @@ use common::{fill_box, particles_for};
 use mpm_core::boundary::{Boundaries, Contact, ContactKind, DomainWalls};
 use mpm_core::material::{DruckerPrager, ElasticModel, Lame, Plasticity, Snow, SolidMaterial};
 use mpm_core::Solver as _;
-use mpm_core::{Dim, DimOps, GridSpec, Material, Matrix, Real, Vector};
+use mpm_core::{Dim, DimOps, GridSpec, Material, Matrix, Real, StepControl, Vector};
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 
 fn floor() -> Boundaries<2> {
@@ -37,7 +37,10 @@ fn drop_block(material: Material, v0: Vector<2>) -> ExplicitSolver<2> {
         move |_| (v0, Matrix::<2>::zeros()),
     );
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            ..StepControl::default()
+        },
         ..ExplicitParams::default()
     };
     ExplicitSolver::new(spec, params, materials, floor(), particles).unwrap()

@@ -10,7 +10,8 @@ use mpm_core::geostatic::set_geostatic;
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{
-    run_until_with, GridSpec, Material, Matrix, Real, Solver, Stage, TimeStepPolicy, Vector,
+    run_until_with, GridSpec, Material, Matrix, Real, Solver, Stage, StepControl, TimeStepPolicy,
+    Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 
@@ -71,13 +72,16 @@ fn column_with(
         w.treatment = treatment;
     }
     let params = ExplicitParams {
-        gravity,
-        gravity_ramp: ramp,
-        damping,
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.4,
-            dt_max: 1.0,
-            dt_min: 1e-12,
+        step: StepControl {
+            gravity,
+            gravity_ramp: ramp,
+            damping,
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.4,
+                dt_max: 1.0,
+                dt_min: 1e-12,
+            },
+            ..StepControl::default()
         },
         ..ExplicitParams::default()
     };
@@ -303,9 +307,12 @@ fn the_gravity_ramp_starts_at_zero_and_reaches_full_gravity() {
     );
     let (dt, ramp) = (1e-3, 0.01);
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(0.0, -G),
-        gravity_ramp: Some(GravityRamp { duration: ramp }),
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -G),
+            gravity_ramp: Some(GravityRamp { duration: ramp }),
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         ..ExplicitParams::default()
     };
     let mut s =

@@ -25,8 +25,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .expect("a beam has particles");
     let y0 = particles.x[tip].y;
     let params = TlmpmParams {
-        gravity: Vector::<2>::new(0.0, -g),
-        time_step: TimeStepPolicy::Fixed { dt: 5e-3 },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -g),
+            time_step: TimeStepPolicy::Fixed { dt: 5e-3 },
+            ..StepControl::default()
+        },
         // Every grid node at X ≤ 0 held at rest.
         fixed: vec![FixedRegion::clamp(
             Vector::<2>::new(-1.0, -1.0),

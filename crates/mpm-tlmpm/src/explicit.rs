@@ -158,7 +158,7 @@ where
     let masses = reference.node_masses();
     displacement.resize(masses.len(), Vector::<D>::zeros());
     let stress = &*stress;
-    let damping = (!params.damping.is_off()).then_some(params.damping);
+    let damping = (!params.step.damping.is_off()).then_some(params.step.damping);
     displacement.par_iter_mut().enumerate().for_each(|(i, u)| {
         let (f, _) = internal_force(reference, stress, i);
         let v = match &damping {

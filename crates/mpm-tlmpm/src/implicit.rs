@@ -123,12 +123,7 @@ where
         particles: Particles<D>,
     ) -> Result<Self, SetupError> {
         let t = Instant::now();
-        if !params.damping.is_off() {
-            let (name, value) = if params.damping.local != 0.0 {
-                ("local damping", params.damping.local)
-            } else {
-                ("viscous damping", params.damping.viscous)
-            };
+        if let Some((name, value)) = params.step.damping.first_on() {
             return Err(SetupError::InvalidParameter {
                 name,
                 value,
@@ -146,7 +141,7 @@ where
         };
         if implicit.linear == LinearSolver::Cholesky {
             solver.analyse().map_err(|e| SetupError::InvalidParameter {
-                name: "linear_solver",
+                name: crate::parameters::LINEAR_SOLVER,
                 value: Real::NAN,
                 reason: match e {
                     CholeskyError::Backend(_) => "symbolic Cholesky analysis failed",

@@ -65,8 +65,11 @@
 //! let beam = Body::new(Shape::cuboid([0.0, 0.0], [1.0, 0.1]), 0);
 //! let particles = ParticlesBuilder::new(&spec, &materials).with(&beam).unwrap().build();
 //! let params = TlmpmParams {
-//!     gravity: Vector::<2>::new(0.0, -9.81),
-//!     time_step: TimeStepPolicy::Fixed { dt: 0.01 },
+//!     step: StepControl {
+//!         gravity: Vector::<2>::new(0.0, -9.81),
+//!         time_step: TimeStepPolicy::Fixed { dt: 0.01 },
+//!         ..StepControl::default()
+//!     },
 //!     fixed: vec![FixedRegion::clamp(Vector::<2>::new(-1.0, -1.0), Vector::<2>::new(0.0, 1.0))],
 //!     ..TlmpmParams::default()
 //! };
@@ -93,9 +96,11 @@ mod explicit;
 mod implicit;
 mod loads;
 mod newton;
+pub mod parameters;
 mod params;
 mod potential;
 mod reference;
+pub mod settings;
 pub mod stages;
 mod transfer;
 

@@ -205,7 +205,7 @@ impl AppliedLoads {
         let ramp_ok =
             |r: &Option<GravityRamp>| r.is_none_or(|r| r.duration > 0.0 && r.duration.is_finite());
         for (i, l) in nodal.iter().enumerate() {
-            let name = format!("nodal load {i}");
+            let name = crate::settings::nodal_load(i);
             let corners_ok = match &l.nodes {
                 NodeSelection::Point(p) => finite(p),
                 NodeSelection::Box { min, max } => finite(min) && finite(max),
@@ -233,7 +233,7 @@ impl AppliedLoads {
         }
         let mut surface = Vec::with_capacity(tractions.len());
         for (k, t) in tractions.iter().enumerate() {
-            let name = format!("traction {k}");
+            let name = crate::settings::traction(k);
             if !(finite(&t.min) && finite(&t.max) && finite(&t.traction) && ramp_ok(&t.ramp)) {
                 return Err(invalid(
                     name,

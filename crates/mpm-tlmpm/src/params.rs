@@ -2,8 +2,7 @@
 
 use crate::contact::{ContactRadius, Obstacle};
 use crate::loads::{NodalLoad, SurfaceTraction};
-use mpm_core::quasistatic::{Damping, GravityRamp};
-use mpm_core::{Kernel, OnInstability, Real, TimeStepPolicy, Vector};
+use mpm_core::{Kernel, Real, StepControl, Vector};
 use serde::{Deserialize, Serialize};
 
 /// Particle–grid velocity transfer on the reference grid.
@@ -110,18 +109,12 @@ pub struct TlmpmParams<const D: usize> {
     pub kernel: Kernel,
     /// Particle–grid velocity transfer.
     pub transfer: Transfer,
-    /// Gravitational acceleration (m/s²).
-    pub gravity: Vector<D>,
-    /// Gravity ramp from zero at t = 0 (full gravity from the start when `None`).
-    pub gravity_ramp: Option<GravityRamp>,
-    /// Damping of the unbalanced nodal forces (off by default): explicit TLMPM only; the
-    /// implicit solver rejects it, since it has no incremental potential.
-    pub damping: Damping,
-    /// Time-step policy. The implicit solver's adaptive bound is `cfl · Δx / max_p |v_p|` (no
-    /// wave-speed limit); the explicit solver's is `cfl · Δx / max_p (|v_p| + c_p)`.
-    pub time_step: TimeStepPolicy,
-    /// Reaction to a failed guard check or a failed Newton solve.
-    pub on_instability: OnInstability,
+    /// Gravity, time step, damping and the reaction to instability (a failed guard check or a
+    /// failed Newton solve). Damping of the unbalanced nodal forces is for explicit TLMPM only;
+    /// the implicit solver rejects it, since it has no incremental potential. The implicit
+    /// solver's adaptive bound is `cfl · Δx / max_p |v_p|` (no wave-speed limit); the explicit
+    /// solver's is `cfl · Δx / max_p (|v_p| + c_p)`.
+    pub step: StepControl<D>,
     /// Dirichlet regions on the reference grid. After an A-ULMPM reference update they apply to
     /// the nodes of the new reference grid.
     pub fixed: Vec<FixedRegion<D>>,
@@ -168,11 +161,7 @@ impl<const D: usize> Default for TlmpmParams<D> {
         Self {
             kernel: Kernel::Quadratic,
             transfer: Transfer::Apic,
-            gravity: Vector::<D>::zeros(),
-            gravity_ramp: None,
-            damping: Damping::default(),
-            time_step: TimeStepPolicy::default(),
-            on_instability: OnInstability::Abort,
+            step: StepControl::default(),
             fixed: Vec::new(),
             contact: None,
             clamp_planes: Vec::new(),

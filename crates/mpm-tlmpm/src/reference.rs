@@ -49,7 +49,7 @@ impl<const D: usize> ReferenceConfig<D> {
     ) -> Result<Self, SetupError> {
         if positions.len() >= NONE as usize {
             return Err(SetupError::InvalidParameter {
-                name: "particles",
+                name: crate::parameters::PARTICLES,
                 value: positions.len() as Real,
                 reason: "too many particles for 32-bit indices",
             });
@@ -86,7 +86,7 @@ impl<const D: usize> ReferenceConfig<D> {
         }
         if node_grid.len() >= NONE as usize {
             return Err(SetupError::InvalidParameter {
-                name: "grid.size",
+                name: crate::parameters::GRID_SIZE,
                 value: node_grid.len() as Real,
                 reason: "too many active nodes for 32-bit indices",
             });
@@ -273,7 +273,7 @@ fn mirror_planes<const D: usize>(
     for c in planes {
         let bad = |reason| {
             Err(SetupError::InvalidSetting {
-                setting: format!("clamp plane on axis {} at {} m", c.axis, c.position),
+                setting: crate::settings::clamp_plane(c.axis, c.position),
                 reason,
             })
         };

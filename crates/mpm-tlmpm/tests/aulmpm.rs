@@ -7,7 +7,7 @@ use common::{block, grid_around, lattice, neo_hookean, particles_of};
 use mpm_core::boundary::ColliderShape;
 use mpm_core::material::{DruckerPrager, ElasticModel, Lame, Plasticity, Snow, SolidMaterial};
 use mpm_core::Solver as _;
-use mpm_core::{Columns, Material, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{Columns, Material, Particles, Real, StepControl, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, ExplicitTlmpm, FixedRegion, ImplicitParams, ImplicitTlmpm,
     Obstacle, ReferenceConfig, ReferenceUpdate, TlmpmParams,
@@ -93,8 +93,11 @@ fn a_trigger_that_never_fires_is_bitwise_tlmpm() {
         Vector::<2>::new(0.5 * d.x - 2.0 * d.y, 0.5 * d.y + 2.0 * d.x)
     });
     let base = TlmpmParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
-        time_step: TimeStepPolicy::Fixed { dt: 2e-3 },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            time_step: TimeStepPolicy::Fixed { dt: 2e-3 },
+            ..StepControl::default()
+        },
         fixed: vec![FixedRegion::clamp(
             Vector::<2>::zeros(),
             Vector::<2>::from_element(0.3),
@@ -180,9 +183,12 @@ fn collapse(material: Material, implicit: bool, end: Real) -> (Real, Real) {
         normal: Vector::<2>::new(0.0, 1.0),
     });
     let params = TlmpmParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
-        time_step: TimeStepPolicy::Fixed {
-            dt: if implicit { 2e-3 } else { 4e-4 },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            time_step: TimeStepPolicy::Fixed {
+                dt: if implicit { 2e-3 } else { 4e-4 },
+            },
+            ..StepControl::default()
         },
         contact: Some(ContactParams {
             radius: ContactRadius::Fixed(radius),

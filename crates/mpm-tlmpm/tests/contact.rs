@@ -6,7 +6,7 @@ mod common;
 use common::{block, grid_around, lattice, momentum, neo_hookean, particles_of};
 use mpm_core::boundary::ColliderShape;
 use mpm_core::Solver as _;
-use mpm_core::{Columns, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{Columns, Particles, Real, StepControl, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, ExplicitTlmpm, ImplicitParams, ImplicitTlmpm, NewtonParams,
     Obstacle, TlmpmParams,
@@ -38,7 +38,10 @@ impl Solver {
         let materials = vec![neo_hookean(1e5, 0.3, 1000.0)];
         if implicit {
             let params = TlmpmParams {
-                time_step: TimeStepPolicy::Fixed { dt: 5.0 * dt },
+                step: StepControl {
+                    time_step: TimeStepPolicy::Fixed { dt: 5.0 * dt },
+                    ..params.step
+                },
                 ..params
             };
             let newton = NewtonParams {
@@ -54,7 +57,10 @@ impl Solver {
             ))
         } else {
             let params = TlmpmParams {
-                time_step: TimeStepPolicy::Fixed { dt },
+                step: StepControl {
+                    time_step: TimeStepPolicy::Fixed { dt },
+                    ..params.step
+                },
                 ..params
             };
             Self::Explicit(Box::new(
@@ -231,10 +237,8 @@ fn block_on_wall(implicit: bool) {
         point: Vector::<2>::new(0.0, wall),
         normal: Vector::<2>::new(0.0, 1.0),
     });
-    let params = TlmpmParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
-        ..contact_params(vec![floor])
-    };
+    let mut params = contact_params(vec![floor]);
+    params.step.gravity = Vector::<2>::new(0.0, -9.81);
     let mut s = Solver::new(implicit, params, particles, 2e-4);
     let (mut lowest, mut contacts, mut peak_speed) = (Real::INFINITY, 0, 0.0 as Real);
     let mut mean_vy = 0.0;

@@ -7,7 +7,7 @@ use common::{block, grid_around, momentum, solid};
 use mpm_core::material::{ElasticModel, Lame};
 use mpm_core::quasistatic::GravityRamp;
 use mpm_core::Solver as _;
-use mpm_core::{Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{Particles, Real, StepControl, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ExplicitTlmpm, FixedRegion, ImplicitParams, ImplicitTlmpm, LinearSolver, NewtonParams,
     NodalLoad, NodeSelection, SurfaceTraction, TlmpmParams,
@@ -52,7 +52,10 @@ fn loaded_free_block(implicit: bool, ramped: bool) -> (Real, Particles<2>) {
     let traction = V2::new(2000.0, 500.0);
     let ramp = ramped.then_some(GravityRamp { duration: 5.0 * dt });
     let params = TlmpmParams {
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         nodal_loads: vec![
             NodalLoad {
                 nodes: NodeSelection::Box {
@@ -174,7 +177,10 @@ fn bar_elongation_error(dx: Real) -> Real {
         velocity: V2::zeros(),
     };
     let params = TlmpmParams {
-        time_step: TimeStepPolicy::Fixed { dt: 10.0 },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt: 10.0 },
+            ..StepControl::default()
+        },
         fixed: vec![
             roller(-all, all, 1),
             roller(V2::new(0.5 * len, -10.0), V2::new(0.5 * len, 10.0), 0),

@@ -5,8 +5,8 @@ mod common;
 use common::{block, fmt_residuals, grid_around, momentum, neo_hookean, Lcg};
 use mpm_core::Solver as _;
 use mpm_core::{
-    Dim, DimOps, Instability, Matrix, OnInstability, Real, Stage, StepError, TimeStepPolicy,
-    Vector, Violation,
+    Dim, DimOps, Instability, Matrix, OnInstability, Real, Stage, StepControl, StepError,
+    TimeStepPolicy, Vector, Violation,
 };
 use mpm_tlmpm::{
     fitted_order, ExplicitTlmpm, ImplicitParams, ImplicitTlmpm, LinearSolver, NewtonError,
@@ -32,7 +32,10 @@ where
         a * (x - c)
     });
     let params = TlmpmParams {
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         ..TlmpmParams::default()
     };
     ImplicitTlmpm::new(
@@ -256,7 +259,10 @@ fn linear_momentum_is_conserved_without_gravity_or_boundaries() {
             ..ImplicitParams::default()
         };
         let params = TlmpmParams {
-            time_step: TimeStepPolicy::Fixed { dt: 0.02 },
+            step: StepControl {
+                time_step: TimeStepPolicy::Fixed { dt: 0.02 },
+                ..StepControl::default()
+            },
             ..TlmpmParams::default()
         };
         let mut solver = ImplicitTlmpm::new(
@@ -281,7 +287,10 @@ fn linear_momentum_is_conserved_without_gravity_or_boundaries() {
         let mut explicit = ExplicitTlmpm::new(
             grid_around(bounds, 0.1, 3),
             TlmpmParams {
-                time_step: TimeStepPolicy::Fixed { dt: 1e-3 },
+                step: StepControl {
+                    time_step: TimeStepPolicy::Fixed { dt: 1e-3 },
+                    ..params.step
+                },
                 ..params
             },
             vec![neo_hookean(1e4, 0.3, 1000.0)],
@@ -313,7 +322,10 @@ fn guards_and_retries() {
     let grid = grid_around(bounds, 0.1, 3);
     let materials = vec![neo_hookean(1e4, 0.3, 1000.0)];
     let abort = TlmpmParams {
-        time_step: TimeStepPolicy::Fixed { dt: 0.01 },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt: 0.01 },
+            ..StepControl::default()
+        },
         ..TlmpmParams::default()
     };
     let mut explicit =
@@ -335,7 +347,10 @@ fn guards_and_retries() {
         "a failed step changes nothing"
     );
     let retry = TlmpmParams {
-        on_instability: OnInstability::Retry { max_retries: 4 },
+        step: StepControl {
+            on_instability: OnInstability::Retry { max_retries: 4 },
+            ..abort.step
+        },
         ..abort.clone()
     };
     let mut explicit =
@@ -407,7 +422,10 @@ fn guards_and_retries() {
     let mut retried = ImplicitTlmpm::new(
         grid,
         TlmpmParams {
-            on_instability: OnInstability::Retry { max_retries: 8 },
+            step: StepControl {
+                on_instability: OnInstability::Retry { max_retries: 8 },
+                ..abort.step
+            },
             ..abort
         },
         ImplicitParams {
@@ -443,8 +461,11 @@ fn a_gigapascal_block_falls_under_gravity_without_a_newton_failure() {
         Vector::<2>::from_element(0.7),
     );
     let params = TlmpmParams {
-        time_step: TimeStepPolicy::Fixed { dt: 5e-3 },
-        gravity: Vector::<2>::new(0.0, -9.81),
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt: 5e-3 },
+            gravity: Vector::<2>::new(0.0, -9.81),
+            ..StepControl::default()
+        },
         ..TlmpmParams::default()
     };
     let mut s = ImplicitTlmpm::new(

@@ -6,7 +6,7 @@ use common::{block, grid_around, solid, Lcg};
 use mpm_core::material::{ElasticModel, Lame};
 use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::Solver as _;
-use mpm_core::{Dim, DimOps, Material, Particles, Real, TimeStepPolicy, Vector};
+use mpm_core::{Dim, DimOps, Material, Particles, Real, StepControl, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ExplicitTlmpm, FixedRegion, ImplicitParams, ImplicitTlmpm, LinearSolver, NewtonParams,
     TimeScheme, TlmpmParams, Transfer,
@@ -94,7 +94,10 @@ where
     let mut clamp_hi = Vector::<D>::from_element(10.0);
     clamp_hi[0] = 0.0;
     let params = TlmpmParams {
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         fixed: vec![FixedRegion::clamp(
             Vector::<D>::from_element(-10.0),
             clamp_hi,
@@ -181,8 +184,11 @@ where
     let mut clamp_lo = Vector::<D>::from_element(-10.0);
     clamp_lo[up] = len;
     let params = TlmpmParams {
-        gravity,
-        time_step: TimeStepPolicy::Fixed { dt: 10.0 },
+        step: StepControl {
+            gravity,
+            time_step: TimeStepPolicy::Fixed { dt: 10.0 },
+            ..StepControl::default()
+        },
         fixed: vec![FixedRegion::clamp(
             clamp_lo,
             Vector::<D>::from_element(10.0),
@@ -263,7 +269,10 @@ where
     let mut gravity = Vector::<D>::zeros();
     gravity[D - 1] = -9.81;
     let params = TlmpmParams {
-        gravity,
+        step: StepControl {
+            gravity,
+            ..StepControl::default()
+        },
         fixed: vec![FixedRegion::clamp(
             Vector::<D>::from_element(0.0),
             Vector::<D>::from_element(0.3),
@@ -282,7 +291,10 @@ fn explicit_and_implicit_agree_for_a_small_time_step() {
     let end = 0.05;
     let run = |implicit: Option<ImplicitParams>, transfer: Transfer, dt: Real| -> Particles<2> {
         let params = TlmpmParams {
-            time_step: TimeStepPolicy::Fixed { dt },
+            step: StepControl {
+                time_step: TimeStepPolicy::Fixed { dt },
+                ..params.step
+            },
             transfer,
             ..params.clone()
         };
@@ -346,8 +358,11 @@ where
     pool.install(|| {
         let (grid, params, particles) = spinning_block::<D>(7, 0.05);
         let params = TlmpmParams {
-            time_step: TimeStepPolicy::Fixed {
-                dt: if matches!(which, 0 | 4) { 5e-4 } else { 5e-3 },
+            step: StepControl {
+                time_step: TimeStepPolicy::Fixed {
+                    dt: if matches!(which, 0 | 4) { 5e-4 } else { 5e-3 },
+                },
+                ..params.step
             },
             transfer: match which {
                 3 | 7 => Transfer::Persistent,
@@ -404,8 +419,11 @@ fn loaded_column() -> (Real, Real) {
     let h = dx / 2.0;
     let bounds = (Vector::<2>::zeros(), Vector::<2>::new(width, len));
     let params = |gravity: Real| TlmpmParams {
-        gravity: Vector::<2>::new(0.0, -gravity),
-        time_step: TimeStepPolicy::Fixed { dt: 10.0 },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -gravity),
+            time_step: TimeStepPolicy::Fixed { dt: 10.0 },
+            ..StepControl::default()
+        },
         fixed: vec![FixedRegion::clamp(
             Vector::<2>::new(-10.0, len),
             Vector::<2>::from_element(10.0),
@@ -515,13 +533,16 @@ fn damped_hanging_column(damping: Damping) -> (Real, Real) {
         Vector::<2>::zeros()
     });
     let params = TlmpmParams {
-        gravity: Vector::<2>::new(0.0, -g),
-        gravity_ramp: Some(GravityRamp { duration: 0.005 }),
-        damping,
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.5,
-            dt_max: 1.0,
-            dt_min: 1e-12,
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -g),
+            gravity_ramp: Some(GravityRamp { duration: 0.005 }),
+            damping,
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.5,
+                dt_max: 1.0,
+                dt_min: 1e-12,
+            },
+            ..StepControl::default()
         },
         fixed: vec![FixedRegion::clamp(
             Vector::<2>::new(-10.0, len),
@@ -581,9 +602,12 @@ fn explicit_tlmpm_with_damping_settles_the_hanging_column() {
 fn the_implicit_solver_rejects_damping() {
     let bounds = (Vector::<2>::zeros(), Vector::<2>::new(0.25, 0.25));
     let params = TlmpmParams {
-        damping: Damping {
-            local: 0.05,
-            viscous: 0.0,
+        step: StepControl {
+            damping: Damping {
+                local: 0.05,
+                viscous: 0.0,
+            },
+            ..StepControl::default()
         },
         ..TlmpmParams::default()
     };
@@ -602,7 +626,7 @@ fn the_implicit_solver_rejects_damping() {
     )
     .expect_err("rejected");
     assert!(
-        matches!(err, mpm_core::SetupError::InvalidParameter { name: "local damping", value, .. } if value == 0.05),
+        matches!(err, mpm_core::SetupError::InvalidParameter { name: mpm_core::parameters::LOCAL_DAMPING, value, .. } if value == 0.05),
         "{err}"
     );
 }
@@ -613,11 +637,14 @@ fn spin(implicit: bool, transfer: Transfer, steps: usize) -> (Particles<2>, Real
     let (grid, params, particles) = spinning_block::<2>(3, 0.0);
     let params = TlmpmParams {
         transfer,
-        gravity: Vector::<2>::zeros(),
-        fixed: Vec::new(),
-        time_step: TimeStepPolicy::Fixed {
-            dt: if implicit { 5e-3 } else { 5e-4 },
+        step: StepControl {
+            gravity: Vector::<2>::zeros(),
+            time_step: TimeStepPolicy::Fixed {
+                dt: if implicit { 5e-3 } else { 5e-4 },
+            },
+            ..params.step
         },
+        fixed: Vec::new(),
         ..params
     };
     let materials = vec![common::neo_hookean(1e5, 0.3, 1000.0)];

@@ -8,7 +8,7 @@ use common::{lattice, particles_of};
 use mpm_core::boundary::ColliderShape;
 use mpm_core::material::{ElasticModel, Lame, Plasticity, Snow, SolidMaterial};
 use mpm_core::Solver as _;
-use mpm_core::{Columns, GridSpec, Material, Particles, TimeStepPolicy, Vector};
+use mpm_core::{Columns, GridSpec, Material, Particles, StepControl, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, ExplicitTlmpm, ImplicitParams, ImplicitTlmpm, Obstacle,
     ReferenceUpdate, TlmpmParams, TlmpmState, Transfer,
@@ -41,9 +41,12 @@ fn setup(implicit: bool) -> (GridSpec<2>, TlmpmParams<2>, Vec<Material>, Particl
     );
     let particles = particles_of(&grid, plastic, &[lattice(bounds, dx / 2.0, (400.0, 0))]);
     let params = TlmpmParams {
-        gravity: Vector::<2>::new(0.0, -9.81),
-        time_step: TimeStepPolicy::Fixed {
-            dt: if implicit { 2e-3 } else { 4e-4 },
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -9.81),
+            time_step: TimeStepPolicy::Fixed {
+                dt: if implicit { 2e-3 } else { 4e-4 },
+            },
+            ..StepControl::default()
         },
         contact: Some(ContactParams {
             radius: ContactRadius::Fixed(radius),

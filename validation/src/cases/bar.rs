@@ -11,7 +11,9 @@
 use super::{assemble, lattice, neo_hookean, sweep, RunError};
 use crate::report::{nan_max, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
-use mpm_core::{run_until_with, GridSpec, Matrix, ParticlesBuilder, Real, TimeStepPolicy, Vector};
+use mpm_core::{
+    run_until_with, GridSpec, Matrix, ParticlesBuilder, Real, StepControl, TimeStepPolicy, Vector,
+};
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -126,10 +128,13 @@ pub fn build(cfg: &BarConfig, n: usize) -> Result<ExplicitSolver<2>, RunError> {
         }],
     };
     let params = ExplicitParams {
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: cfg.cfl,
-            dt_max: 1.0,
-            dt_min: 1e-12,
+        step: StepControl {
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: cfg.cfl,
+                dt_max: 1.0,
+                dt_min: 1e-12,
+            },
+            ..StepControl::default()
         },
         ..ExplicitParams::default()
     };

@@ -5,7 +5,8 @@ use super::{assemble, neo_hookean, sweep, RunError};
 use crate::report::{nan_max, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
 use mpm_core::{
-    run_until_with, Body, GridSpec, Matrix, ParticlesBuilder, Real, Shape, TimeStepPolicy, Vector,
+    run_until_with, Body, GridSpec, Matrix, ParticlesBuilder, Real, Shape, StepControl,
+    TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use std::collections::BTreeMap;
@@ -112,10 +113,13 @@ pub fn build(cfg: &DiskConfig, n: usize) -> Result<ExplicitSolver<2>, RunError> 
         .with(&disk)?
         .build();
     let params = ExplicitParams {
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: cfg.cfl,
-            dt_max: 1.0,
-            dt_min: 1e-12,
+        step: StepControl {
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: cfg.cfl,
+                dt_max: 1.0,
+                dt_min: 1e-12,
+            },
+            ..StepControl::default()
         },
         ..ExplicitParams::default()
     };

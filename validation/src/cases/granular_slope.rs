@@ -38,7 +38,7 @@ use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKi
 use mpm_core::material::{DruckerPrager, ElasticModel, Lame, Plasticity, SolidMaterial};
 use mpm_core::quasistatic::GravityRamp;
 use mpm_core::{
-    run_until_with, GridSpec, Material, ParticlesBuilder, Real, TimeStepPolicy, Vector,
+    run_until_with, GridSpec, Material, ParticlesBuilder, Real, StepControl, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use std::collections::BTreeMap;
@@ -139,12 +139,15 @@ fn run(theta: Real, n: usize) -> Result<Run, RunError> {
     };
     let t = theta.to_radians();
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(GRAVITY * t.sin(), -GRAVITY * t.cos()),
-        gravity_ramp: Some(GravityRamp { duration: RAMP }),
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.4,
-            dt_max: 1e-3,
-            dt_min: 1e-12,
+        step: StepControl {
+            gravity: Vector::<2>::new(GRAVITY * t.sin(), -GRAVITY * t.cos()),
+            gravity_ramp: Some(GravityRamp { duration: RAMP }),
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.4,
+                dt_max: 1e-3,
+                dt_min: 1e-12,
+            },
+            ..StepControl::default()
         },
         ..ExplicitParams::default()
     };

@@ -13,7 +13,7 @@ use mpm_core::boundary::{Boundaries, WallTreatment};
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{
-    run_until_with, GridSpec, Material, ParticlesBuilder, Real, TimeStepPolicy, Vector,
+    run_until_with, GridSpec, Material, ParticlesBuilder, Real, StepControl, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use std::collections::BTreeMap;
@@ -184,13 +184,16 @@ pub fn build_column(
         w.treatment = treatment;
     }
     let params = ExplicitParams {
-        gravity: Vector::<2>::new(0.0, -cfg.gravity),
-        gravity_ramp: ramp,
-        damping,
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: cfg.cfl,
-            dt_max: 1.0,
-            dt_min: 1e-12,
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -cfg.gravity),
+            gravity_ramp: ramp,
+            damping,
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: cfg.cfl,
+                dt_max: 1.0,
+                dt_min: 1e-12,
+            },
+            ..StepControl::default()
         },
         ..ExplicitParams::default()
     };

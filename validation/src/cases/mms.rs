@@ -20,7 +20,8 @@ use mpm_core::boundary::{
 };
 use mpm_core::material::Lame;
 use mpm_core::{
-    Dim, DimOps, GridSpec, Kernel, Matrix, ParticlesBuilder, Real, TimeStepPolicy, Vector,
+    Dim, DimOps, GridSpec, Kernel, Matrix, ParticlesBuilder, Real, StepControl, TimeStepPolicy,
+    Vector,
 };
 use mpm_explicit::{BodyForce, ExplicitParams, ExplicitSolver, Transfer};
 use std::collections::BTreeMap;
@@ -225,7 +226,10 @@ where
     let params = ExplicitParams {
         kernel: cfg.kernel,
         transfer: cfg.transfer,
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         body_force: Some(force),
         ..ExplicitParams::default()
     };

@@ -16,8 +16,8 @@ use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, DomainWal
 use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::sampling::{Body, BodyError, ParticlesBuilder, Sampling, Shape, MAX_PARTICLES};
 use mpm_core::{
-    Angular, Dim, DimOps, GridSpec, Material, Matrix, OnInstability, ParticleExtra, Particles,
-    SetupError, Solver, TimeStepPolicy, Vector,
+    Angular, Dim, DimOps, GridSpec, Material, Matrix, OnInstability, Parameter, ParticleExtra,
+    Particles, SetupError, Solver, StepControl, TimeStepPolicy, Vector,
 };
 use std::ops::Range;
 
@@ -130,41 +130,34 @@ pub fn grid_spec<const D: usize>(scene: &LoadedScene) -> GridSpec<D> {
     GridSpec::covering(vector::<D>(&g.min), vector::<D>(&g.max), g.dx)
 }
 
-/// The time-step policy of `[simulation]`.
-pub fn time_step_policy(s: &Simulation) -> TimeStepPolicy {
-    match s.time_step {
-        TimeStepDef::Adaptive {
-            cfl,
-            dt_max,
-            dt_min,
-        } => TimeStepPolicy::Adaptive {
-            cfl,
-            dt_max,
-            dt_min,
+/// The step control of `[simulation]`: gravity, its ramp, the damping (off unless given), the
+/// time-step policy and what to do on a failed guard check. Scenes of a solver without a ramp
+/// or damping cannot give those keys, so its step control has them off.
+pub fn step_control<const D: usize>(s: &Simulation) -> StepControl<D> {
+    StepControl {
+        gravity: vector::<D>(&s.gravity),
+        gravity_ramp: s.gravity_ramp.map(|duration| GravityRamp { duration }),
+        damping: Damping {
+            local: s.local_damping.unwrap_or(0.0),
+            viscous: s.viscous_damping.unwrap_or(0.0),
         },
-        TimeStepDef::Fixed { dt } => TimeStepPolicy::Fixed { dt },
-    }
-}
-
-/// The gravity ramp of `[simulation]`, if any.
-pub fn gravity_ramp(s: &Simulation) -> Option<GravityRamp> {
-    s.gravity_ramp.map(|duration| GravityRamp { duration })
-}
-
-/// The damping of `[simulation]` (off unless given).
-pub fn damping(s: &Simulation) -> Damping {
-    Damping {
-        local: s.local_damping.unwrap_or(0.0),
-        viscous: s.viscous_damping.unwrap_or(0.0),
-    }
-}
-
-/// What to do on a failed guard check, from `[simulation]`.
-pub fn on_instability(s: &Simulation) -> OnInstability {
-    match s.on_instability {
-        InstabilityAction::Abort => OnInstability::Abort,
-        InstabilityAction::Retry => OnInstability::Retry {
-            max_retries: s.max_retries.unwrap_or(4),
+        time_step: match s.time_step {
+            TimeStepDef::Adaptive {
+                cfl,
+                dt_max,
+                dt_min,
+            } => TimeStepPolicy::Adaptive {
+                cfl,
+                dt_max,
+                dt_min,
+            },
+            TimeStepDef::Fixed { dt } => TimeStepPolicy::Fixed { dt },
+        },
+        on_instability: match s.on_instability {
+            InstabilityAction::Abort => OnInstability::Abort,
+            InstabilityAction::Retry => OnInstability::Retry {
+                max_retries: s.max_retries.unwrap_or(4),
+            },
         },
     }
 }
@@ -421,23 +414,33 @@ where
     }
 }
 
-/// Where a solver's set-up errors point in the scene: its parameter and setting names
+/// Where a solver's set-up errors point in the scene: its parameters and setting names
 /// (`SetupError::InvalidParameter::name`, `SetupError::InvalidSetting::setting`) with the scene
-/// key of each. The solver's build module keeps the table.
+/// key of each. The solver's build module keeps the table, of the constants the solver crate
+/// declares (its `parameters` and `settings` modules), so a parameter renamed or removed there
+/// fails to compile here.
 #[derive(Clone, Debug, Default)]
 pub struct ErrorKeys<'a> {
-    /// Parameter name → scene key.
-    pub parameters: &'a [(&'a str, &'a str)],
+    /// Parameter → scene key.
+    pub parameters: &'a [(Parameter, &'a str)],
     /// Setting name → scene key.
     pub settings: Vec<(String, String)>,
 }
 
-/// The scene keys of the parameters `mpm-core` checks for every solver (`TimeStepPolicy`).
-const CORE_PARAMETER_KEYS: [(&str, &str); 3] = [
-    ("dt", "simulation.dt"),
-    ("cfl", "simulation.cfl"),
-    ("dt_max", "simulation.dt_max"),
-];
+/// The scene keys of the parameters of `mpm_core::parameters`, which every solver may raise:
+/// the time-step policy, gravity, its ramp and the damping of `[simulation]`.
+const CORE_PARAMETER_KEYS: [(Parameter, &str); 7] = {
+    use mpm_core::parameters::*;
+    [
+        (DT, "simulation.dt"),
+        (CFL, "simulation.cfl"),
+        (DT_MAX, "simulation.dt_max"),
+        (GRAVITY, "simulation.gravity"),
+        (GRAVITY_RAMP, "simulation.gravity_ramp"),
+        (LOCAL_DAMPING, "simulation.local_damping"),
+        (VISCOUS_DAMPING, "simulation.viscous_damping"),
+    ]
+};
 
 /// Maps a solver set-up error to the scene key it comes from, through the solver's `keys`: a
 /// particle outside the grid to its body, a missing column or material to `materials`, and a
@@ -476,6 +479,27 @@ pub fn setup_error(
     scene.error(&key, e.to_string())
 }
 
+/// Asserts that every parameter in `declared` (a crate's `parameters::ALL`) has exactly one
+/// scene key in `table` and that `table` holds nothing undeclared: a parameter added to a
+/// solver crate without a key would point its errors at `simulation.solver`.
+#[cfg(test)]
+pub(crate) fn assert_parameter_keys(
+    solver: &str,
+    declared: &[Parameter],
+    table: &[(Parameter, &str)],
+) {
+    for p in declared {
+        let keys = table.iter().filter(|(q, _)| q == p).count();
+        assert_eq!(keys, 1, "{solver}: parameter `{p}` has {keys} scene keys");
+    }
+    for (p, key) in table {
+        assert!(
+            declared.contains(p),
+            "{solver}: `{p}` -> {key} is not declared"
+        );
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -493,6 +517,13 @@ mod tests {
         let scene = parse(Path::new("s.toml"), &text).unwrap_or_else(|e| panic!("{e}"));
         let built = build_dim::<2>(&scene).unwrap_or_else(|e| panic!("{e}"));
         built.solver.particles().volume0.iter().sum()
+    }
+
+    /// Every parameter of `mpm_core::parameters`, which every solver may raise, has one scene
+    /// key in the core table (each solver's build module checks its own table the same way).
+    #[test]
+    fn every_core_parameter_has_a_scene_key() {
+        assert_parameter_keys("core", mpm_core::parameters::ALL, &CORE_PARAMETER_KEYS);
     }
 
     #[test]

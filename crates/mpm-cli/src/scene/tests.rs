@@ -347,8 +347,8 @@ fn rest_state_keys_resolve_print_and_reach_the_solvers() {
     );
     let own = s.scene.explicit().expect("explicit tables");
     let p = crate::solvers::explicit::build::params::<2>(&s, own);
-    assert_eq!(p.gravity_ramp.map(|r| r.duration), Some(0.5));
-    assert_eq!((p.damping.local, p.damping.viscous), (0.05, 2.0));
+    assert_eq!(p.step.gravity_ramp.map(|r| r.duration), Some(0.5));
+    assert_eq!((p.step.damping.local, p.step.damping.viscous), (0.05, 2.0));
     // Printed as given, and the printed scene resolves to the same one.
     let toml = s.scene.to_toml();
     assert!(
@@ -362,7 +362,7 @@ fn rest_state_keys_resolve_print_and_reach_the_solvers() {
         &plain,
         plain.scene.explicit().expect("tables"),
     );
-    assert!(p.damping.is_off() && p.gravity_ramp.is_none());
+    assert!(p.step.damping.is_off() && p.step.gravity_ramp.is_none());
     assert!(!plain.scene.to_toml().contains("damping"));
     // A geostatic body with its K0.
     let s = parsed(&scene("", "geostatic = true\nk0 = 0.6\n", ""));

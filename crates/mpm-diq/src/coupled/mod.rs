@@ -21,7 +21,7 @@
 //! 6. **G2P** for both (the solid's F update and guards in `mpm-tlmpm`), the fluid's position
 //!    correction, then commit and (A-ULMPM) the reference update.
 
-use crate::fluid::{DiqFluid, DiqParams};
+use crate::fluid::{no_ramp_or_damping, DiqFluid, DiqParams};
 use crate::pressure::PressureSystem;
 use mpm_core::boundary::Boundaries;
 use mpm_core::material::Plasticity;
@@ -161,7 +161,7 @@ where
             (0..particles.len()).partition(|&p| is_fluid[particles.material[p] as usize]);
         if solid_index.is_empty() {
             return Err(SetupError::InvalidSetting {
-                setting: "materials".into(),
+                setting: crate::settings::MATERIALS.into(),
                 reason: "the coupled DIQ solver needs a solid; a fluid alone runs on the DIQ \
                          fluid solver"
                     .into(),
@@ -179,7 +179,7 @@ where
             };
             if !(lambda > 0.0 && lambda.is_finite()) {
                 return Err(SetupError::InvalidParameter {
-                    name: "lambda",
+                    name: crate::parameters::LAMBDA,
                     value: lambda,
                     reason: "the mixed solid needs a positive first Lamé parameter (Poisson's \
                              ratio above 0): λ^v = λ/2 is its pressure stiffness",
@@ -197,10 +197,11 @@ where
             fluid_ps,
             time,
         )?;
+        // The solids take the fluid's step control; a ramp or damping of their own would be
+        // dropped, so it is rejected as the fluid's is.
+        no_ramp_or_damping(&solid_params.tlmpm.step)?;
         let mut tl = solid_params.tlmpm.clone();
-        tl.time_step = params.time_step;
-        tl.gravity = params.gravity;
-        tl.on_instability = params.on_instability;
+        tl.step = params.step;
         let mut solid = ImplicitTlmpm::new(spec, tl, solid_params.implicit, solid_mats, solid_ps)?;
         let mut steps = 0;
         if let Some(state) = restart {
@@ -279,6 +280,7 @@ where
         plan.push(
             Stage::TIME_STEP,
             self.params
+                .step
                 .time_step
                 .describe("Δx / max(|v| + |g| dt) over fluid and solid particles"),
         );
@@ -442,11 +444,12 @@ where
         let t0 = std::time::Instant::now();
         let stable = self.bound();
         self.times.add(Stage::TIME_STEP, t0.elapsed());
-        let dt0 = choose_dt(&self.params.time_step, stable)
+        let dt0 = choose_dt(&self.params.step.time_step, stable)
             .map_err(|e| start.error(Failure::Guard(Stage::TIME_STEP, e), 0.0, 0))?;
-        let (pending, dt, retries) = retry_halving(self.params.on_instability, start, dt0, |dt| {
-            self.attempt(dt)
-        })?;
+        let (pending, dt, retries) =
+            retry_halving(self.params.step.on_instability, start, dt0, |dt| {
+                self.attempt(dt)
+            })?;
         let (solves, iq) = (pending.solves.clone(), pending.interface_points);
         let pairs = pending.contact_pairs;
         let updated = self

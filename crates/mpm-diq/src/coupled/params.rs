@@ -96,8 +96,9 @@ pub struct SolidParams<const D: usize> {
     /// Where the interface rows are integrated.
     pub interface: InterfaceQuadrature,
     /// TLMPM parameters: kernel (the paper's B2 is `Kernel::Quadratic`), transfer, fixed
-    /// regions, contact (Eq. 4, with obstacles for walls and colliders) and A-ULMPM. Their time
-    /// step, gravity and instability policy are replaced by the coupled solver's.
+    /// regions, contact (Eq. 4, with obstacles for walls and colliders) and A-ULMPM. Their step
+    /// control (`step`: time step, gravity, instability policy) is replaced by the coupled
+    /// solver's; a gravity ramp or damping here is rejected, as DIQ has neither.
     pub tlmpm: TlmpmParams<D>,
     /// Newton and linear-solver parameters of the elastic solve.
     pub implicit: ImplicitParams,

@@ -50,7 +50,12 @@ where
     }
 
     fn diagnostics(&self) -> Diagnostics<D> {
-        Diagnostics::compute(&self.particles, &self.materials, None, &self.params.gravity)
+        Diagnostics::compute(
+            &self.particles,
+            &self.materials,
+            None,
+            &self.params.step.gravity,
+        )
     }
 
     fn plan(&self) -> StagePlan {

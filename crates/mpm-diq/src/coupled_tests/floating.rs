@@ -267,7 +267,7 @@ fn a_film_slides_freely_down_a_clamped_wall_with_the_node_rows() {
     };
     let (g_n, g_t) = (2.0, 9.6);
     let mut p = params::<2>(5e-3, true);
-    p.gravity = Vector::<2>::new(-g_n, -g_t);
+    p.step.gravity = Vector::<2>::new(-g_n, -g_t);
     p.position_correction = false;
     let mut s = DiqCoupled::new(
         spec,

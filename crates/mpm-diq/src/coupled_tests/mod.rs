@@ -19,7 +19,7 @@ use mpm_core::boundary::{Boundaries, Contact, DomainWalls};
 use mpm_core::material::{ElasticModel, FluidMaterial, Lame, SolidMaterial, Tait};
 use mpm_core::{
     Body, Columns, GridSpec, Material, Particles, ParticlesBuilder, Real, Shape, Solver,
-    TimeStepPolicy, Vector,
+    StepControl, TimeStepPolicy, Vector,
 };
 
 const RHO_F: Real = 1000.0;
@@ -85,10 +85,13 @@ fn particles_of<const D: usize>(
 
 fn params<const D: usize>(dt_max: Real, gravity: bool) -> DiqParams<D> {
     let mut p = DiqParams::<D> {
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.4,
-            dt_max,
-            dt_min: 1e-9,
+        step: StepControl {
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.4,
+                dt_max,
+                dt_min: 1e-9,
+            },
+            ..DiqParams::default().step
         },
         pressure: PressureParams {
             rel_tol: 1e-10,
@@ -97,7 +100,7 @@ fn params<const D: usize>(dt_max: Real, gravity: bool) -> DiqParams<D> {
         ..DiqParams::default()
     };
     if !gravity {
-        p.gravity = Vector::<D>::zeros();
+        p.step.gravity = Vector::<D>::zeros();
     }
     p
 }

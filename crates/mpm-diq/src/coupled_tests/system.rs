@@ -280,3 +280,32 @@ fn solid_solid_penalty_contact_acts_inside_the_coupled_step() {
         "without contact they keep approaching: {separating_off}"
     );
 }
+
+#[test]
+fn a_gravity_ramp_of_the_fluid_or_the_solids_is_rejected() {
+    use mpm_core::parameters::GRAVITY_RAMP;
+    use mpm_core::quasistatic::GravityRamp;
+    use mpm_core::SetupError;
+    let ramp = Some(GravityRamp { duration: 0.5 });
+    let make = |fluid: DiqParams<2>, solid: SolidParams<2>| {
+        let spec = tank(16);
+        let water = lattice(&spec, ([0.0, 0.0], [1.0, 0.25]), (0, RHO_F));
+        let block = lattice(&spec, ([0.375, 0.5], [0.625, 0.75]), (1, 500.0));
+        let ps = particles_of(&spec, columns(), &[water, block]);
+        let materials = materials(500.0, 1e5);
+        match DiqCoupled::new(spec, fluid, solid, materials, walls(true), ps) {
+            Ok(_) => None,
+            Err(SetupError::InvalidParameter { name, reason, .. }) => Some((name, reason)),
+            Err(other) => panic!("expected an invalid parameter, got {other}"),
+        }
+    };
+    let fluid = params::<2>(5e-3, true);
+    assert_eq!(make(fluid.clone(), SolidParams::default()), None);
+    let mut ramped = fluid.clone();
+    ramped.step.gravity_ramp = ramp;
+    let expected = Some((GRAVITY_RAMP, "DIQ has no gravity ramp"));
+    assert_eq!(make(ramped, SolidParams::default()), expected);
+    let mut solid = SolidParams::default();
+    solid.tlmpm.step.gravity_ramp = ramp;
+    assert_eq!(make(fluid, solid), expected);
+}

@@ -19,25 +19,29 @@ pub(crate) use step::Attempt;
 pub(crate) use transfer::{Bins, NodeFields, Points};
 
 use crate::domain::{Domain, WallSample};
+use crate::parameters::{GRID, MASS, PRESSURE_MAX_ITERATIONS, PRESSURE_REL_TOL};
 use crate::pressure::{PressureParams, PressureSystem};
+use crate::settings;
 use mpm_core::boundary::{Boundaries, ContactKind};
+use mpm_core::parameters::GRAVITY;
 use mpm_core::solver::DtBound;
 use mpm_core::{
-    Dim, DimOps, GridSpec, Material, OnInstability, Particles, Real, SetupError, Stage, StagePlan,
-    StageTimes, TimeStepPolicy, Vector,
+    Dim, DimOps, GridSpec, Material, Parameter, Particles, Real, SetupError, Stage, StagePlan,
+    StageTimes, StepControl, Vector,
 };
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the DIQ fluid solver.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DiqParams<const D: usize> {
-    /// Time step. With [`TimeStepPolicy::Adaptive`], `cfl` is the fraction of Δx a particle may
-    /// travel in one step (0.4 in the paper's Table 1): `dt (|v|max + |g| dt) = cfl Δx`.
-    pub time_step: TimeStepPolicy,
-    /// Gravity (m/s²).
-    pub gravity: Vector<D>,
-    /// Abort, or retry at dt/2, when a guard check or the pressure solve fails.
-    pub on_instability: OnInstability,
+    /// Gravity, time step, damping and the reaction to instability. With
+    /// [`TimeStepPolicy::Adaptive`](mpm_core::TimeStepPolicy::Adaptive), `cfl` is the fraction of Δx a particle may travel in one
+    /// step (0.4 in the paper's Table 1): `dt (|v|max + |g| dt) = cfl Δx`. The reaction covers
+    /// a failed guard check and a failed pressure solve. DIQ has neither a gravity ramp nor
+    /// damping: set-up rejects a ramp and damping that is on. Serialised under the old keys
+    /// `time_step`, `gravity` and `on_instability`.
+    #[serde(flatten)]
+    pub step: StepControl<D>,
     /// The pressure solve.
     pub pressure: PressureParams,
     /// The volume-preserving position correction after advection (on by default).
@@ -72,9 +76,10 @@ impl<const D: usize> Default for DiqParams<D> {
         let mut gravity = Vector::<D>::zeros();
         gravity[D - 1] = -9.81;
         Self {
-            time_step: TimeStepPolicy::default(),
-            gravity,
-            on_instability: OnInstability::Abort,
+            step: StepControl {
+                gravity,
+                ..StepControl::default()
+            },
             pressure: PressureParams::default(),
             position_correction: true,
             gradient_quadrature: GradientQuadrature::default(),
@@ -122,12 +127,18 @@ pub struct DiqFluid<const D: usize> {
     times: StageTimes,
 }
 
-fn invalid(name: &'static str, value: Real, reason: &'static str) -> SetupError {
+fn invalid(name: Parameter, value: Real, reason: &'static str) -> SetupError {
     SetupError::InvalidParameter {
         name,
         value,
         reason,
     }
+}
+
+/// Rejects a gravity ramp and damping that is on: DIQ loads gravity in full from the start and
+/// has no damping term.
+pub(crate) fn no_ramp_or_damping<const D: usize>(step: &StepControl<D>) -> Result<(), SetupError> {
+    step.refuse_ramp_and_damping("DIQ has no gravity ramp", "DIQ has no damping")
 }
 
 impl<const D: usize> DiqFluid<D>
@@ -158,27 +169,24 @@ where
         mut particles: Particles<D>,
         time: Real,
     ) -> Result<Self, SetupError> {
-        params.time_step.validate()?;
-        if !params.gravity.iter().all(|g| g.is_finite()) {
-            return Err(invalid("gravity", Real::NAN, "must be finite"));
+        params.step.time_step.validate()?;
+        if !params.step.gravity.iter().all(|g| g.is_finite()) {
+            return Err(invalid(GRAVITY, Real::NAN, "must be finite"));
         }
+        no_ramp_or_damping(&params.step)?;
         let p = &params.pressure;
         if !(p.rel_tol > 0.0 && p.rel_tol < 1.0) {
-            return Err(invalid("pressure.rel_tol", p.rel_tol, "must lie in (0, 1)"));
+            return Err(invalid(PRESSURE_REL_TOL, p.rel_tol, "must lie in (0, 1)"));
         }
         if p.max_iterations == 0 {
-            return Err(invalid(
-                "pressure.max_iterations",
-                0.0,
-                "must be at least 1",
-            ));
+            return Err(invalid(PRESSURE_MAX_ITERATIONS, 0.0, "must be at least 1"));
         }
         for (i, m) in materials.iter().enumerate() {
             match m {
                 Material::Fluid(_) => {}
                 Material::Solid(_) => {
                     return Err(SetupError::InvalidSetting {
-                        setting: format!("material {i}"),
+                        setting: settings::material(i),
                         reason: "the DIQ solver takes fluid materials only (solids come with \
                                  the DIQ coupling)"
                             .into(),
@@ -190,7 +198,7 @@ where
             Some(w) => {
                 if w.contact.kind != ContactKind::Slip || w.contact.friction != 0.0 {
                     return Err(SetupError::InvalidSetting {
-                        setting: "walls".into(),
+                        setting: settings::WALLS.into(),
                         reason: "DIQ walls are free slip (v·n = 0, Eq. 25): use kind = \"slip\" \
                                  without friction"
                             .into(),
@@ -208,7 +216,7 @@ where
         );
         if !domain.colliders_are_slip() {
             return Err(SetupError::InvalidSetting {
-                setting: "colliders".into(),
+                setting: settings::COLLIDERS.into(),
                 reason: "DIQ colliders are free slip (v·n = v_b·n, Eq. 25): use kind = \"slip\" \
                          without friction"
                     .into(),
@@ -216,7 +224,7 @@ where
         }
         if !domain.is_valid() {
             return Err(invalid(
-                "grid",
+                GRID,
                 spec.size.iter().copied().min().unwrap_or(0) as Real,
                 "the box inside the walls must hold at least 2 cells per axis",
             ));
@@ -235,7 +243,7 @@ where
                     < 0.0
             }) {
                 return Err(SetupError::InvalidSetting {
-                    setting: "colliders".into(),
+                    setting: settings::COLLIDERS.into(),
                     reason: format!(
                         "particle {i} at {:?} lies inside collider {k} at t = {time} s: fluid \
                          cannot overlap a collider; move the body or the collider",
@@ -253,7 +261,7 @@ where
             }
             if !(particles.mass[i] > 0.0 && particles.volume0[i] > 0.0) {
                 return Err(invalid(
-                    "mass",
+                    MASS,
                     particles.mass[i],
                     "particle mass and volume must be positive",
                 ));
@@ -314,7 +322,10 @@ where
         let mut plan = StagePlan::default();
         plan.push(
             Stage::TIME_STEP,
-            self.params.time_step.describe("Δx / max(|v| + |g| dt)"),
+            self.params
+                .step
+                .time_step
+                .describe("Δx / max(|v| + |g| dt)"),
         );
         plan.push(Stage::SORT, "bin particles by cell");
         plan.push(

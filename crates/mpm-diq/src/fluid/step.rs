@@ -43,7 +43,7 @@ where
     }
 
     fn bound_for(&self, vmax: Real, fraction: Real) -> Real {
-        let g = self.params.gravity.norm();
+        let g = self.params.step.gravity.norm();
         let c = fraction * self.domain.spec.dx;
         if vmax.is_nan() {
             return Real::NAN;
@@ -57,7 +57,7 @@ where
     }
 
     pub(super) fn cfl(&self) -> Real {
-        match self.params.time_step {
+        match self.params.step.time_step {
             TimeStepPolicy::Adaptive { cfl, .. } => cfl,
             TimeStepPolicy::Fixed { .. } => 0.4,
         }
@@ -107,7 +107,7 @@ where
         nodes: &mut NodeFields<D>,
         dt: Real,
     ) -> Result<(), Failure<PressureError>> {
-        let g = self.params.gravity;
+        let g = self.params.step.gravity;
         for (n, (v, &im)) in nodes.velocity.iter_mut().zip(&nodes.inv_mass).enumerate() {
             if im > 0.0 {
                 *v = *v * im + g * dt;
@@ -229,13 +229,13 @@ where
         let t0 = std::time::Instant::now();
         let stable = self.displacement_dt(self.cfl());
         self.times.add(Stage::TIME_STEP, t0.elapsed());
-        let dt0 = choose_dt(&self.params.time_step, stable).map_err(|e| {
+        let dt0 = choose_dt(&self.params.step.time_step, stable).map_err(|e| {
             start.error(Failure::<PressureError>::Guard(Stage::TIME_STEP, e), 0.0, 0)
         })?;
         let mut projection = std::mem::take(&mut self.projection);
         let mut correction = std::mem::take(&mut self.correction);
         let mut times = std::mem::take(&mut self.times);
-        let result = retry_halving(self.params.on_instability, start, dt0, |dt| {
+        let result = retry_halving(self.params.step.on_instability, start, dt0, |dt| {
             self.attempt(dt, &mut projection, &mut correction, &mut times)
         });
         self.projection = projection;

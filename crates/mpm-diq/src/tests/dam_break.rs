@@ -28,8 +28,8 @@ fn fixed_dt_above_the_bound_stops_or_is_retried_at_half_steps() {
     let dx = 1.0 / 16.0;
     let make = |policy| {
         let mut p = params::<2>(1e-2, false);
-        p.time_step = TimeStepPolicy::Fixed { dt: 0.15 };
-        p.on_instability = policy;
+        p.step.time_step = TimeStepPolicy::Fixed { dt: 0.15 };
+        p.step.on_instability = policy;
         let spec = grid([16, 16], dx);
         DiqFluid::new(
             spec,

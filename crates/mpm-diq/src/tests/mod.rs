@@ -5,10 +5,12 @@
 //! - `system`: the assembled pressure system, its solvers and the projection;
 //! - `hydrostatic`: water at rest in 2D and 3D, with and without a collider;
 //! - `dam_break`: the volume drift, the step bound, determinism and resume, a moving collider;
-//! - `viscosity`: the implicit viscous solve.
+//! - `viscosity`: the implicit viscous solve;
+//! - `setup`: the step control DIQ rejects (a gravity ramp, damping) and its serialised keys.
 
 mod dam_break;
 mod hydrostatic;
+mod setup;
 mod system;
 mod viscosity;
 
@@ -18,7 +20,7 @@ use mpm_core::boundary::{Boundaries, Contact, DomainWalls};
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::{
     Body, Columns, GridSpec, Material, Matrix, Particles, ParticlesBuilder, Real, Shape, Solver,
-    TimeStepPolicy, Vector,
+    StepControl, TimeStepPolicy, Vector,
 };
 
 const RHO: Real = 1000.0;
@@ -86,10 +88,13 @@ fn grid<const D: usize>(cells: [usize; D], dx: Real) -> GridSpec<D> {
 
 fn params<const D: usize>(dt_max: Real, correction: bool) -> DiqParams<D> {
     DiqParams {
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.4,
-            dt_max,
-            dt_min: 1e-9,
+        step: StepControl {
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.4,
+                dt_max,
+                dt_min: 1e-9,
+            },
+            ..DiqParams::default().step
         },
         position_correction: correction,
         ..DiqParams::default()

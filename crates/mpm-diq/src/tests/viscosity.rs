@@ -23,7 +23,7 @@ const LAYER: Real = 0.25;
 fn shear_layer(mu: Real, n: usize) -> DiqFluid<2> {
     let dx = 1.0 / n as Real;
     let mut p = params::<2>(2e-3, false);
-    p.gravity = Vector::<2>::zeros();
+    p.step.gravity = Vector::<2>::zeros();
     p.pressure.rel_tol = 1e-12;
     let y0 = 0.25;
     let spec = GridSpec::new(Vector::<2>::zeros(), dx, [3 * n / 2 + 1, n + 1]);
@@ -89,7 +89,7 @@ fn swirl(mu: Real) -> DiqFluid<2> {
     let n = 24;
     let dx = 1.0 / n as Real;
     let mut p = params::<2>(5e-3, false);
-    p.gravity = Vector::<2>::zeros();
+    p.step.gravity = Vector::<2>::zeros();
     p.pressure.rel_tol = 1e-12;
     let spec = GridSpec::new(Vector::<2>::zeros(), dx, [n + 1, n + 1]);
     DiqFluid::new(
@@ -159,7 +159,7 @@ fn viscosity_keeps_momentum_and_removes_energy_in_3d() {
     let n = 16;
     let dx = 1.0 / n as Real;
     let mut p = params::<3>(5e-3, false);
-    p.gravity = Vector::<3>::zeros();
+    p.step.gravity = Vector::<3>::zeros();
     p.pressure.rel_tol = 1e-12;
     let cube = |mu: Real| {
         let spec = GridSpec::new(Vector::<3>::zeros(), dx, [n + 1, n + 1, n + 1]);

@@ -111,7 +111,7 @@ where
         crate::validate::validate(&spec, &params, &materials, &particles)?;
         let mirror = match &boundaries.walls {
             Some(w) => MirrorWalls::new(&spec, w).map_err(|reason| SetupError::InvalidSetting {
-                setting: "walls".into(),
+                setting: crate::settings::WALLS.into(),
                 reason,
             })?,
             None => None,
@@ -229,7 +229,7 @@ where
         let dt0 = self.choose_dt();
         self.stats.add(Stage::TIME_STEP, t.elapsed());
         let dt0 = dt0.map_err(|e| start.error(Failure::Guard(Stage::TIME_STEP, e), 0.0, 0))?;
-        let policy = self.params.on_instability;
+        let policy = self.params.step.on_instability;
         let (_, dt, retries) = retry_halving(policy, start, dt0, |dt| self.attempt(dt))?;
         self.time += dt;
         self.steps += 1;
@@ -245,7 +245,7 @@ where
 
     /// The step under the time-step policy, or why none can be taken.
     fn choose_dt(&self) -> Result<Real, (Location, Violation, Real)> {
-        let stable = match self.params.time_step {
+        let stable = match self.params.step.time_step {
             // A fixed step does not use the bound; the guard checks still catch bad states.
             TimeStepPolicy::Fixed { .. } => Real::INFINITY,
             TimeStepPolicy::Adaptive { .. } => match self.signal {
@@ -253,14 +253,14 @@ where
                 None => self.stable_dt(),
             },
         };
-        choose_dt(&self.params.time_step, stable)
+        choose_dt(&self.params.step.time_step, stable)
     }
 
     /// One attempt at a step of size `dt`: the stage plan. G2P updates the particles in place;
     /// when the policy retries failed steps, their moving columns are saved first and put back
     /// on failure, so a retry starts from the same state.
     fn attempt(&mut self, dt: Real) -> Result<(), Failure<Infallible>> {
-        let retries = matches!(self.params.on_instability, OnInstability::Retry { .. });
+        let retries = matches!(self.params.step.on_instability, OnInstability::Retry { .. });
         self.signal = None;
         if retries {
             self.ws.backup.save(&self.particles);
@@ -293,7 +293,7 @@ where
             .map_err(Failure::guard(Stage::G2P))?;
         if self.has_extra_state() {
             self.commit_extra();
-        } else if matches!(self.params.time_step, TimeStepPolicy::Adaptive { .. }) {
+        } else if matches!(self.params.step.time_step, TimeStepPolicy::Adaptive { .. }) {
             self.signal = Some(signal);
         }
         Ok(())
@@ -326,7 +326,7 @@ where
 
     /// [`Self::stable_dt`] for a given largest signal speed `max_p(|v_p| + c_p)` (m/s).
     fn stable_dt_for(&self, max_signal: Real) -> Real {
-        let cfl = match self.params.time_step {
+        let cfl = match self.params.step.time_step {
             TimeStepPolicy::Adaptive { cfl, .. } => cfl,
             TimeStepPolicy::Fixed { .. } => 1.0,
         };
@@ -434,7 +434,7 @@ where
             &self.particles,
             &self.materials,
             inertia,
-            &self.params.gravity,
+            &self.params.step.gravity,
         )
     }
 }

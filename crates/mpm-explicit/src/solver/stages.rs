@@ -113,7 +113,7 @@ where
     /// Whether P2G also transfers the momentum without forces (FLIP's old velocities, the
     /// damping's velocity before the update).
     fn needs_momentum0(&self) -> bool {
-        matches!(self.params.transfer, Transfer::Flip { .. }) || !self.params.damping.is_off()
+        matches!(self.params.transfer, Transfer::Flip { .. }) || !self.params.step.damping.is_off()
     }
 
     /// Stage: P2G of every phase onto its own grid, with the fused MLS stress impulse for a step
@@ -152,8 +152,8 @@ where
     /// Gravity (m/s²) at the start of the step, ramped where the parameters ramp it.
     fn gravity(&self) -> Vector<D> {
         gravity_at(
-            &self.params.gravity,
-            self.params.gravity_ramp.as_ref(),
+            &self.params.step.gravity,
+            self.params.step.gravity_ramp.as_ref(),
             self.time,
         )
     }
@@ -165,7 +165,7 @@ where
         let with0 = self.needs_momentum0();
         let forces = NodeForces {
             gravity: self.gravity(),
-            damping: (!self.params.damping.is_off()).then_some(self.params.damping),
+            damping: (!self.params.step.damping.is_off()).then_some(self.params.step.damping),
         };
         let boundaries = (!self.multigrid()).then_some(&self.boundaries);
         let mut r = Ok(());
@@ -265,7 +265,7 @@ where
             transfer: self.params.transfer,
             materials: material_view(&self.materials, &self.params),
             soft_walls: self.params.soft_walls,
-            signal_speed: matches!(self.params.time_step, TimeStepPolicy::Adaptive { .. }),
+            signal_speed: matches!(self.params.step.time_step, TimeStepPolicy::Adaptive { .. }),
         };
         if self.has_extra_state() {
             let mixing_ran = self.params.mixing.is_some();

@@ -15,11 +15,16 @@ use crate::adaptive::Adaptive;
 use crate::contact::{ContactRadius, ContactStage, ContactStats};
 use crate::error::{NewtonError, StepError};
 use crate::loads::AppliedLoads;
+use crate::parameters::{
+    CONTACT_RADIUS, FLIP_BLEND, GRID_DX, MATERIAL_KIND, MATERIAL_PLASTICITY, PARTICLE_MASS,
+    PARTICLE_VOLUME0, REFERENCE_UPDATE_EPSILON, REFERENCE_UPDATE_ETA,
+};
 use crate::params::{TlmpmParams, Transfer};
 use crate::potential::Constitutive;
 use crate::reference::{Constraints, ReferenceConfig};
 use crate::transfer::{self, FlipBlend, Update};
 use mpm_core::material::{ElasticModel, Lame, Plasticity};
+use mpm_core::parameters::GRAVITY;
 use mpm_core::quasistatic::gravity_at;
 use mpm_core::solver::nan_max;
 use mpm_core::timestep::{choose_dt, stable_dt};
@@ -162,7 +167,7 @@ where
             "at set-up: weights, gradients, connectivity and node masses of the reference \
              configuration",
         );
-        plan.push(Stage::TIME_STEP, p.time_step.describe(bound));
+        plan.push(Stage::TIME_STEP, p.step.time_step.describe(bound));
         plan.push(
             Stage::P2G,
             format!(
@@ -185,8 +190,8 @@ where
             crate::stages::EXTERNAL_FORCES,
             format!(
                 "gravity {:?} m/s^2{}{}{}",
-                p.gravity.as_slice(),
-                p.gravity_ramp.map_or(String::new(), |r| format!(
+                p.step.gravity.as_slice(),
+                p.step.gravity_ramp.map_or(String::new(), |r| format!(
                     " ramped from 0 over {} s",
                     r.duration
                 )),
@@ -268,8 +273,8 @@ where
     /// plus the nodal loads and tractions (ramped likewise).
     pub fn external_forces(&mut self) {
         let g = gravity_at(
-            &self.params.gravity,
-            self.params.gravity_ramp.as_ref(),
+            &self.params.step.gravity,
+            self.params.step.gravity_ramp.as_ref(),
             self.time,
         );
         self.external.clear();
@@ -467,7 +472,7 @@ where
     /// The stable step bound (s) before `dt_max`: `cfl · Δx / max_p (|v_p| + c_p)` with the
     /// P-wave speed `c_p` when `wave`, else `cfl · Δx / max_p |v_p|`. With a fixed dt, cfl = 1.
     pub fn stable_dt(&self, wave: bool) -> Real {
-        let cfl = match self.params.time_step {
+        let cfl = match self.params.step.time_step {
             TimeStepPolicy::Adaptive { cfl, .. } => cfl,
             TimeStepPolicy::Fixed { .. } => 1.0,
         };
@@ -490,11 +495,12 @@ where
 
     /// Chooses the step under the policy.
     pub fn choose_dt(&self, wave: bool) -> Result<Real, Failure> {
-        let stable = match self.params.time_step {
+        let stable = match self.params.step.time_step {
             TimeStepPolicy::Fixed { .. } => Real::INFINITY,
             TimeStepPolicy::Adaptive { .. } => self.stable_dt(wave),
         };
-        choose_dt(&self.params.time_step, stable).map_err(|e| Failure::Guard(Stage::TIME_STEP, e))
+        choose_dt(&self.params.step.time_step, stable)
+            .map_err(|e| Failure::Guard(Stage::TIME_STEP, e))
     }
 
     /// Runs `attempt` with `dt0` (s), halving dt after a failure as the policy allows
@@ -505,7 +511,7 @@ where
         dt0: Real,
         mut attempt: impl FnMut(&mut Self, Real) -> Result<T, Failure>,
     ) -> Result<(T, Real, u32), StepError> {
-        let (policy, start) = (self.params.on_instability, self.start());
+        let (policy, start) = (self.params.step.on_instability, self.start());
         let r = retry_halving(policy, start, dt0, |dt| attempt(self, dt))?;
         self.time += r.1;
         self.steps += 1;
@@ -526,10 +532,14 @@ where
     /// step: the fixed Δt, or `min(stable(), dt_max)` with `stable` the solver's adaptive bound
     /// (s).
     pub fn diagnostics(&self, stable: impl FnOnce() -> Real) -> Diagnostics<D> {
-        let mut d =
-            Diagnostics::compute(&self.particles, &self.materials, None, &self.params.gravity);
+        let mut d = Diagnostics::compute(
+            &self.particles,
+            &self.materials,
+            None,
+            &self.params.step.gravity,
+        );
         if let (Some(stage), Some(params)) = (&self.contact, &self.params.contact) {
-            let dt = match self.params.time_step {
+            let dt = match self.params.step.time_step {
                 TimeStepPolicy::Fixed { dt } => dt,
                 TimeStepPolicy::Adaptive { dt_max, .. } => stable().min(dt_max),
             };
@@ -581,38 +591,36 @@ fn validate<const D: usize>(
         })
     };
     if !(spec.dx > 0.0 && spec.dx.is_finite()) {
-        return invalid("grid.dx", spec.dx, "must be positive and finite");
+        return invalid(GRID_DX, spec.dx, "must be positive and finite");
     }
-    params.time_step.validate()?;
-    if params.gravity.iter().any(|g| !g.is_finite()) {
-        return invalid("gravity", Real::NAN, "must be finite");
+    params.step.time_step.validate()?;
+    if params.step.gravity.iter().any(|g| !g.is_finite()) {
+        return invalid(GRAVITY, Real::NAN, "must be finite");
     }
-    if let Some((name, value, reason)) = params.damping.invalid() {
+    if let Some((name, value, reason)) = params.step.damping.invalid() {
         return invalid(name, value, reason);
     }
     if let Transfer::Flip { blend } = params.transfer {
         if !(0.0..=1.0).contains(&blend) {
-            return invalid("flip blend", blend, "must lie in [0, 1]");
+            return invalid(FLIP_BLEND, blend, "must lie in [0, 1]");
         }
     }
-    if let Some(r) = params.gravity_ramp {
-        if !(r.duration > 0.0 && r.duration.is_finite()) {
-            return invalid("gravity ramp", r.duration, "must be a positive finite time");
-        }
+    if let Some((name, value, reason)) = params.step.gravity_ramp.and_then(|r| r.invalid()) {
+        return invalid(name, value, reason);
     }
     if let Some(c) = &params.contact {
         if let ContactRadius::Fixed(r) = c.radius {
             if !(r > 0.0 && r.is_finite()) {
-                return invalid("contact.radius", r, "must be positive and finite");
+                return invalid(CONTACT_RADIUS, r, "must be positive and finite");
             }
         }
     }
     if let Some(u) = &params.reference_update {
         if u.epsilon.is_nan() || u.epsilon < 0.0 {
-            return invalid("reference_update.epsilon", u.epsilon, "must be at least 0");
+            return invalid(REFERENCE_UPDATE_EPSILON, u.epsilon, "must be at least 0");
         }
         if !(0.0..=1.0).contains(&u.eta) {
-            return invalid("reference_update.eta", u.eta, "must lie in [0, 1]");
+            return invalid(REFERENCE_UPDATE_ETA, u.eta, "must lie in [0, 1]");
         }
     }
     let placeholder = ElasticModel::LinearElastic(Lame {
@@ -632,13 +640,13 @@ fn validate<const D: usize>(
             _ if !used => models.push(placeholder),
             Material::Solid(_) => {
                 return invalid(
-                    "material.plasticity",
+                    MATERIAL_PLASTICITY,
                     k as Real,
                     "plastic solids need A-ULMPM reference updates (reference_update)",
                 );
             }
             Material::Fluid(_) => {
-                return invalid("material.kind", k as Real, "TLMPM supports solids only");
+                return invalid(MATERIAL_KIND, k as Real, "TLMPM supports solids only");
             }
         }
         if used && particles.def_grad.is_none() {
@@ -657,10 +665,10 @@ fn validate<const D: usize>(
     for (p, &material) in particles.material.iter().enumerate() {
         let (m, v) = (particles.mass[p], particles.volume0[p]);
         if !(m > 0.0 && m.is_finite()) {
-            return invalid("particle.mass", m, "must be positive and finite");
+            return invalid(PARTICLE_MASS, m, "must be positive and finite");
         }
         if !(v > 0.0 && v.is_finite()) {
-            return invalid("particle.volume0", v, "must be positive and finite");
+            return invalid(PARTICLE_VOLUME0, v, "must be positive and finite");
         }
         if material as usize >= materials.len() {
             return Err(SetupError::UnknownMaterial {

@@ -2,11 +2,15 @@
 //! reading it back from a checkpoint ([`state_from`]), and checkpoint/restore of the [`Core`].
 
 use super::Core;
+use crate::parameters::restore::{
+    BASE_DEF_GRAD, NODE_VELOCITIES, REFERENCE_POSITIONS, RELATIVE_DEF_GRAD,
+};
 use crate::params::Transfer;
 use crate::reference::{Constraints, ReferenceConfig};
 use mpm_core::solver::{RestoreError, SolverState};
 use mpm_core::{
-    columns, Column, ColumnData, Dim, DimOps, Matrix, Particles, Real, SetupError, Vector,
+    columns, Column, ColumnData, Dim, DimOps, Matrix, Parameter, Particles, Real, SetupError,
+    Vector,
 };
 
 /// The solver state beyond the particle columns: what a checkpoint must hold, besides the
@@ -137,24 +141,24 @@ where
     /// step starts with a P2G transfer).
     pub fn restore(&mut self, state: TlmpmState<D>) -> Result<(), SetupError> {
         let n = self.particles.len();
-        let mismatch = |name: &'static str, len: usize| SetupError::InvalidParameter {
+        let mismatch = |name: Parameter, len: usize| SetupError::InvalidParameter {
             name,
             value: len as Real,
             reason: "must have one entry per particle",
         };
         if state.reference_positions.len() != n {
             return Err(mismatch(
-                "reference_positions",
+                REFERENCE_POSITIONS,
                 state.reference_positions.len(),
             ));
         }
         match (&mut self.adaptive, state.relative_def_grad) {
             (Some(a), Some(rel)) => {
                 if rel.len() != n {
-                    return Err(mismatch("relative_def_grad", rel.len()));
+                    return Err(mismatch(RELATIVE_DEF_GRAD, rel.len()));
                 }
                 if let Some(b) = state.base_def_grad.as_ref().filter(|b| b.len() != n) {
-                    return Err(mismatch("base_def_grad", b.len()));
+                    return Err(mismatch(BASE_DEF_GRAD, b.len()));
                 }
                 a.rel = rel;
                 a.base = state.base_def_grad;
@@ -168,7 +172,7 @@ where
             (None, None) => {}
             _ => {
                 return Err(SetupError::InvalidSetting {
-                    setting: "reference_update".into(),
+                    setting: crate::settings::REFERENCE_UPDATE.into(),
                     reason: "the saved state and the solver disagree on A-ULMPM".into(),
                 })
             }
@@ -185,7 +189,7 @@ where
         if let Some(v) = state.node_velocities {
             if self.params.transfer != Transfer::Persistent {
                 return Err(SetupError::InvalidSetting {
-                    setting: "transfer".into(),
+                    setting: crate::settings::TRANSFER.into(),
                     reason: "the saved state has persistent node velocities, the solver's \
                              transfer is not persistent"
                         .into(),
@@ -193,7 +197,7 @@ where
             }
             if v.len() != self.reference.num_nodes() {
                 return Err(SetupError::InvalidParameter {
-                    name: "node_velocities",
+                    name: NODE_VELOCITIES,
                     value: v.len() as Real,
                     reason: "must have one entry per active node of the reference grid",
                 });

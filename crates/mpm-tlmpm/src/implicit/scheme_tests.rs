@@ -5,7 +5,8 @@ use crate::params::{FixedRegion, ImplicitParams, TimeScheme, TlmpmParams, Transf
 use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
 use mpm_core::Solver as _;
 use mpm_core::{
-    Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, TimeStepPolicy, Vector,
+    Columns, GridSpec, Material, Matrix, ParticleInit, Particles, Real, StepControl,
+    TimeStepPolicy, Vector,
 };
 use std::f64::consts::PI;
 
@@ -59,7 +60,10 @@ fn bar_of(scheme: TimeScheme, dt: Real, elastic: ElasticModel) -> ImplicitTlmpm<
     );
     let params = TlmpmParams {
         transfer: Transfer::Persistent,
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         fixed: vec![FixedRegion::clamp(
             Vector::<2>::from_element(-10.0),
             Vector::<2>::new(0.0, 10.0),

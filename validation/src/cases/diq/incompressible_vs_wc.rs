@@ -37,11 +37,14 @@ fn wc_dam(n: usize) -> Result<(Real, f64), String> {
         .build();
     let walls = Boundaries::slip_walls(3);
     let params = mpm_explicit::ExplicitParams {
-        gravity: Vector::<2>::new(0.0, -G),
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.3,
-            dt_max: 1e-3,
-            dt_min: 1e-12,
+        step: StepControl {
+            gravity: Vector::<2>::new(0.0, -G),
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.3,
+                dt_max: 1e-3,
+                dt_min: 1e-12,
+            },
+            ..StepControl::default()
         },
         ..mpm_explicit::ExplicitParams::default()
     };

@@ -17,7 +17,7 @@ use mpm_core::boundary::Boundaries;
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::{
     run_until_with, Body, Columns, GridSpec, Material, Matrix, Particles, ParticlesBuilder, Real,
-    Solver, TimeStepPolicy, Vector,
+    Solver, StepControl, TimeStepPolicy, Vector,
 };
 use mpm_diq::{DiqFluid, DiqParams};
 use std::collections::BTreeMap;
@@ -83,8 +83,11 @@ impl Setup {
         .velocity_field(move |x| (v(x), Matrix::<2>::zeros()));
         let ps = fluid_particles(&spec, &materials, &block)?;
         let params = DiqParams {
-            time_step: self.time_step,
-            gravity: Vector::<2>::new(0.0, -self.gravity),
+            step: StepControl {
+                time_step: self.time_step,
+                gravity: Vector::<2>::new(0.0, -self.gravity),
+                ..StepControl::default()
+            },
             position_correction: self.correction,
             ..DiqParams::default()
         };

@@ -124,7 +124,10 @@ fn dam_3d(per_axis: usize) -> Result<DiqFluid<3>, String> {
     let ps = fluid_particles(&spec, &materials, &dam)?;
     let walls = Boundaries::slip_walls(1);
     let params = DiqParams {
-        time_step: adaptive(1e-2),
+        step: StepControl {
+            time_step: adaptive(1e-2),
+            ..DiqParams::default().step
+        },
         ..DiqParams::default()
     };
     DiqFluid::new(spec, params, materials, walls, ps).map_err(|e| e.to_string())

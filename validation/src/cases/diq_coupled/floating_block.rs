@@ -48,12 +48,15 @@ pub fn build(
     // The position correction stays with the paper's quadrature (as built); with the
     // node rows it sank the blocks (docs/diq.md) and is off.
     let mut params = DiqParams::<2> {
-        time_step: adaptive(stability::DT_STEP),
+        step: StepControl {
+            time_step: adaptive(stability::DT_STEP),
+            ..DiqParams::default().step
+        },
         position_correction: interface == InterfaceQuadrature::SolidParticles,
         ..DiqParams::default()
     };
     params.pressure.rel_tol = 1e-10;
-    params.gravity = Vector::<2>::new(0.0, -cfg.gravity);
+    params.step.gravity = Vector::<2>::new(0.0, -cfg.gravity);
     let s = DiqCoupled::new(
         spec,
         params,

@@ -19,7 +19,7 @@ use mpm_core::boundary::Boundaries;
 use mpm_core::material::{ElasticModel, Lame, SolidMaterial};
 use mpm_core::{
     run_until_with, Body, Columns, GridSpec, Material, Matrix, Particles, ParticlesBuilder, Real,
-    Solver, Vector,
+    Solver, StepControl, Vector,
 };
 use mpm_diq::{CouplingIteration, DiqCoupled, DiqParams, InterfaceQuadrature, SolidParams};
 use mpm_tlmpm::{ContactParams, ContactRadius, FixedRegion, Obstacle, TlmpmParams};
@@ -101,12 +101,15 @@ fn coupled(
     // The position correction, as built, with the paper's interface quadrature only: with
     // the node rows it sank floating blocks (docs/diq.md).
     let mut params = DiqParams::<2> {
-        time_step: adaptive(dt_max),
+        step: StepControl {
+            time_step: adaptive(dt_max),
+            ..DiqParams::default().step
+        },
         position_correction: solid.interface == InterfaceQuadrature::SolidParticles,
         ..DiqParams::default()
     };
     params.pressure.rel_tol = 1e-10;
-    params.gravity = gravity;
+    params.step.gravity = gravity;
     let boundaries = if walls {
         Boundaries::slip_walls(1)
     } else {

@@ -8,7 +8,8 @@ use crate::cases::{assemble, neo_hookean, sweep, RunError};
 use crate::report::{format_dx, nan_max, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
 use mpm_core::{
-    run_until_with, Columns, GridSpec, Particles, ParticlesBuilder, Real, TimeStepPolicy, Vector,
+    run_until_with, Columns, GridSpec, Particles, ParticlesBuilder, Real, StepControl,
+    TimeStepPolicy, Vector,
 };
 use mpm_explicit::{
     Activation, ContactCoupling, CouplingKind, ExplicitParams, ExplicitSolver, Friction, Phases,
@@ -160,11 +161,14 @@ pub fn build(
     )?;
     let particles = particles.build();
     let params = ExplicitParams {
-        gravity: v(0.0, -cfg.gravity),
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: cfg.cfl,
-            dt_max: 1.0,
-            dt_min: 1e-9,
+        step: StepControl {
+            gravity: v(0.0, -cfg.gravity),
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: cfg.cfl,
+                dt_max: 1.0,
+                dt_min: 1e-9,
+            },
+            ..StepControl::default()
         },
         phases,
         ..ExplicitParams::default()

@@ -16,7 +16,9 @@ use crate::report::{
     decreases_under_refinement, fit_rate, format_dx, nan_max, progress, CaseResult, Mode, Run,
 };
 use mpm_core::boundary::Boundaries;
-use mpm_core::{run_until_with, Columns, GridSpec, ParticlesBuilder, Real, TimeStepPolicy, Vector};
+use mpm_core::{
+    run_until_with, Columns, GridSpec, ParticlesBuilder, Real, StepControl, TimeStepPolicy, Vector,
+};
 use mpm_explicit::{DiffusionScheme, ExplicitParams, ExplicitSolver, Mixing};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -125,10 +127,13 @@ pub fn build(
         alpha[p] = cfg.exact(x, 0.0);
     }
     let params = ExplicitParams {
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: cfg.cfl,
-            dt_max: 1.0,
-            dt_min: 1e-9,
+        step: StepControl {
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: cfg.cfl,
+                dt_max: 1.0,
+                dt_min: 1e-9,
+            },
+            ..StepControl::default()
         },
         mixing: Some(Mixing {
             fluids: [0, 1],

@@ -8,7 +8,7 @@ use super::{fill, tait, two_phases, Fill};
 use crate::cases::{assemble, neo_hookean, sweep, RunError};
 use crate::report::{nan_max, progress, timed_step, CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
-use mpm_core::{Columns, GridSpec, ParticlesBuilder, Real, TimeStepPolicy, Vector};
+use mpm_core::{Columns, GridSpec, ParticlesBuilder, Real, StepControl, TimeStepPolicy, Vector};
 use mpm_explicit::{CouplingKind, Drag, ExplicitParams, ExplicitSolver, Phases};
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -113,8 +113,11 @@ pub fn build(
     )?;
     let particles = particles.build();
     let params = ExplicitParams {
-        gravity: v(0.0, -cfg.gravity),
-        time_step: TimeStepPolicy::Fixed { dt: cfg.dt(dx) },
+        step: StepControl {
+            gravity: v(0.0, -cfg.gravity),
+            time_step: TimeStepPolicy::Fixed { dt: cfg.dt(dx) },
+            ..StepControl::default()
+        },
         phases,
         ..ExplicitParams::default()
     };

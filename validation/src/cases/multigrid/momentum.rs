@@ -11,7 +11,9 @@ use super::{fill, tait, two_phases, Fill};
 use crate::cases::{assemble, neo_hookean, sweep, RunError};
 use crate::report::{nan_max, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::Boundaries;
-use mpm_core::{run_until_with, Columns, GridSpec, ParticlesBuilder, Real, TimeStepPolicy, Vector};
+use mpm_core::{
+    run_until_with, Columns, GridSpec, ParticlesBuilder, Real, StepControl, TimeStepPolicy, Vector,
+};
 use mpm_explicit::{
     Activation, ContactCoupling, CouplingKind, Drag, ExplicitParams, ExplicitSolver, Friction,
 };
@@ -131,11 +133,14 @@ pub fn build(n: usize, variant: &Variant) -> Result<ExplicitSolver<2>, RunError>
         0.0
     };
     let params = ExplicitParams {
-        gravity: v(0.0, -g),
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: 0.3,
-            dt_max: 1.0,
-            dt_min: 1e-9,
+        step: StepControl {
+            gravity: v(0.0, -g),
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: 0.3,
+                dt_max: 1.0,
+                dt_min: 1e-9,
+            },
+            ..StepControl::default()
         },
         phases: two_phases(variant.kind, variant.buoyancy),
         ..ExplicitParams::default()
@@ -183,7 +188,7 @@ pub fn drift(n: usize, variant: &Variant) -> Result<Drift, RunError> {
     let (mut worst, mut exchanged, mut scale): (Real, Real, Real) = (0.0, 0.0, 0.0);
     let run = run_until_with(&mut s, DURATION, |s, _| {
         let d = s.diagnostics();
-        let g_t = s.params().gravity * s.time();
+        let g_t = s.params().step.gravity * s.time();
         worst = nan_max(worst, (d.momentum - d0.momentum - g_t * d0.mass).norm());
         let q = water(s).1;
         exchanged = nan_max(exchanged, (q - q_water - g_t * m_water).norm());

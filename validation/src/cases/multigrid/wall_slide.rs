@@ -16,7 +16,9 @@ use super::{fill, mass_mean, tait, two_phases, Fill};
 use crate::cases::{assemble, neo_hookean, sweep, RunError};
 use crate::report::{decreases_under_refinement, format_dx, progress, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
-use mpm_core::{Columns, GridSpec, ParticlesBuilder, Real, Solver, TimeStepPolicy, Vector};
+use mpm_core::{
+    Columns, GridSpec, ParticlesBuilder, Real, Solver, StepControl, TimeStepPolicy, Vector,
+};
 use mpm_explicit::{
     Activation, ContactCoupling, CouplingKind, ExplicitParams, ExplicitSolver, Friction, Phases,
 };
@@ -165,11 +167,14 @@ pub fn build(cfg: &SlideConfig, n: usize, variant: Variant) -> Result<ExplicitSo
     };
     let (g_n, g_t) = cfg.components();
     let params = ExplicitParams {
-        gravity: v(-g_n, -g_t),
-        time_step: TimeStepPolicy::Adaptive {
-            cfl: cfg.cfl,
-            dt_max: 1.0,
-            dt_min: 1e-9,
+        step: StepControl {
+            gravity: v(-g_n, -g_t),
+            time_step: TimeStepPolicy::Adaptive {
+                cfl: cfg.cfl,
+                dt_max: 1.0,
+                dt_min: 1e-9,
+            },
+            ..StepControl::default()
         },
         phases,
         ..ExplicitParams::default()

@@ -52,7 +52,7 @@
 use super::{result, sweep_labelled, tl_particles, Tlmpm};
 use crate::cases::{lattice, neo_hookean};
 use crate::report::{progress, CaseResult, Mode, Run};
-use mpm_core::{GridSpec, Matrix, Real, TimeStepPolicy, Vector};
+use mpm_core::{GridSpec, Matrix, Real, StepControl, TimeStepPolicy, Vector};
 use mpm_tlmpm::{FixedRegion, ImplicitParams, TlmpmParams, Transfer};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -313,7 +313,10 @@ pub fn history(
     let far = 10.0;
     let params = |dt: Real| TlmpmParams {
         transfer,
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         fixed: vec![FixedRegion::clamp(
             Vector::<2>::new(-far, -far),
             Vector::<2>::new(0.5 * dx, far),

@@ -16,7 +16,7 @@ use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind, DomainWalls};
 use mpm_core::{
     reached, run_until_with, Columns, Dim, DimOps, GridSpec, Material, Matrix, Particles,
-    ParticlesBuilder, Real, TimeStepPolicy, Vector,
+    ParticlesBuilder, Real, StepControl, TimeStepPolicy, Vector,
 };
 use mpm_explicit::{ExplicitParams, ExplicitSolver};
 use mpm_tlmpm::{FixedRegion, ImplicitParams, TlmpmParams};
@@ -145,8 +145,11 @@ pub fn run(dx: Real, method: Method) -> Result<Run, String> {
             }],
         };
         let params = ExplicitParams {
-            gravity,
-            time_step: adaptive(),
+            step: StepControl {
+                gravity,
+                time_step: adaptive(),
+                ..StepControl::default()
+            },
             ..ExplicitParams::default()
         };
         let mut s = ExplicitSolver::new(grid(dx), params, materials, boundaries, particles)
@@ -166,11 +169,14 @@ pub fn run(dx: Real, method: Method) -> Result<Run, String> {
         n = particles.len();
         let implicit = method == Method::ImplicitTlmpm;
         let params = TlmpmParams {
-            gravity,
-            time_step: if implicit {
-                TimeStepPolicy::Fixed { dt: 2.5e-2 * dx }
-            } else {
-                adaptive()
+            step: StepControl {
+                gravity,
+                time_step: if implicit {
+                    TimeStepPolicy::Fixed { dt: 2.5e-2 * dx }
+                } else {
+                    adaptive()
+                },
+                ..StepControl::default()
             },
             fixed: vec![FixedRegion::clamp(
                 Vector::<2>::new(-1.0, top - dx),

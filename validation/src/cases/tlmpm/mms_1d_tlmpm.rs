@@ -97,7 +97,8 @@ use crate::cases::{lattice, neo_hookean};
 use crate::report::{fit_rate, CaseResult, Mode, Run};
 use mpm_core::boundary::{Boundaries, Collider, ColliderShape, Contact, ContactKind};
 use mpm_core::{
-    Body, GridSpec, Kernel, Matrix, ParticlesBuilder, Real, Solver as _, TimeStepPolicy, Vector,
+    Body, GridSpec, Kernel, Matrix, ParticlesBuilder, Real, Solver as _, StepControl,
+    TimeStepPolicy, Vector,
 };
 use mpm_explicit::{BodyForce, ExplicitParams, ExplicitSolver};
 use mpm_tlmpm::{ClampPlane, FixedRegion, ImplicitParams, NewtonParams, TlmpmParams, Transfer};
@@ -447,7 +448,10 @@ fn run_tlmpm(
     let params = TlmpmParams {
         kernel: cfg.kernel,
         transfer: cfg.transfer,
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         fixed,
         clamp_planes,
         ..TlmpmParams::default()
@@ -542,7 +546,10 @@ fn run_mls(
     }));
     let params = ExplicitParams {
         kernel: cfg.kernel,
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         body_force: Some(force),
         ..ExplicitParams::default()
     };

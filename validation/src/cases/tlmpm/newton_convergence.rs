@@ -20,7 +20,7 @@
 use super::{grid_around, result, sweep_labelled, tl_particles, SOLVER_IMPLICIT};
 use crate::cases::{lattice, neo_hookean};
 use crate::report::{progress, CaseResult, Mode, Run};
-use mpm_core::{Dim, DimOps, Matrix, Real, Solver, TimeStepPolicy, Vector};
+use mpm_core::{Dim, DimOps, Matrix, Real, Solver, StepControl, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     fitted_order, ImplicitParams, ImplicitTlmpm, LinearSolver, NewtonParams, SpdProjection,
     TlmpmParams,
@@ -84,7 +84,10 @@ where
         lattice(&bounds.0, &bounds.1, 0.5 * dx, 0).affine_velocity(Vector::<D>::zeros(), a, c);
     let particles = tl_particles(&spec, &materials, &[block])?;
     let params = TlmpmParams {
-        time_step: TimeStepPolicy::Fixed { dt: DT },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt: DT },
+            ..StepControl::default()
+        },
         ..TlmpmParams::default()
     };
     let implicit = ImplicitParams {

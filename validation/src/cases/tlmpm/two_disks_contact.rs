@@ -13,7 +13,7 @@
 use super::{event_count, grid_around, result, sweep_labelled, tl_particles, Tlmpm};
 use crate::cases::{lattice, neo_hookean};
 use crate::report::{progress, CaseResult, Mode, Run};
-use mpm_core::{run_until_with, Body, Real, TimeStepPolicy, Vector};
+use mpm_core::{run_until_with, Body, Real, StepControl, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
     ContactParams, ContactRadius, ImplicitParams, NewtonParams, TlmpmParams, Transfer,
 };
@@ -64,7 +64,10 @@ pub(super) fn solver(
     let hi = Vector::<2>::new(1.2 + 0.5 * dx, 0.7 + 0.5 * dx);
     let params = TlmpmParams {
         transfer,
-        time_step: TimeStepPolicy::Fixed { dt },
+        step: StepControl {
+            time_step: TimeStepPolicy::Fixed { dt },
+            ..StepControl::default()
+        },
         contact: Some(ContactParams {
             radius: ContactRadius::Fixed(0.5 * dx),
             obstacles: Vec::new(),

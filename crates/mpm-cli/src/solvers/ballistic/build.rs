@@ -2,20 +2,16 @@
 //! sampled scene, and the scene keys of its set-up errors.
 
 use super::scene::BallisticScene;
-use crate::build::{
-    on_instability, setup_error, time_step_policy, unused_materials, vector, Built, ErrorKeys,
-    Start,
-};
+use crate::build::{setup_error, step_control, unused_materials, Built, ErrorKeys, Start};
 use crate::error::SceneError;
 use crate::scene::LoadedScene;
 use mpm_ballistic::{Ballistic, BallisticParams};
-use mpm_core::{Dim, DimOps};
+use mpm_core::{Dim, DimOps, Parameter};
 
-/// The scene keys of the ballistic solver's parameter names (`SetupError::InvalidParameter`).
-const PARAMETER_KEYS: [(&str, &str); 2] = [
-    ("restitution", "ballistic.restitution"),
-    ("gravity", "simulation.gravity"),
-];
+/// The scene keys of the ballistic solver's parameters (`SetupError::InvalidParameter`) beyond
+/// those of `mpm-core`.
+pub(crate) const PARAMETER_KEYS: [(Parameter, &str); 1] =
+    [(mpm_ballistic::parameters::RESTITUTION, "ballistic.restitution")];
 
 /// Builds the ballistic solver from the sampled scene, with the start-up warnings (unused
 /// materials).
@@ -33,12 +29,9 @@ where
         particles,
         bodies,
     } = start;
-    let s = &scene.scene.simulation;
     let params = BallisticParams {
-        gravity: vector::<D>(&s.gravity),
+        step: step_control::<D>(&scene.scene.simulation),
         restitution: own.ballistic.restitution,
-        time_step: time_step_policy(s),
-        on_instability: on_instability(s),
     };
     let warnings = unused_materials(&scene.scene, &particles, None);
     let keys = ErrorKeys {
@@ -53,4 +46,13 @@ where
         warnings,
         notes: Vec::new(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    /// Every parameter `mpm-ballistic` declares has one scene key in [`PARAMETER_KEYS`].
+    #[test]
+    fn every_declared_parameter_has_a_scene_key() {
+        crate::build::assert_parameter_keys("ballistic", mpm_ballistic::parameters::ALL, &super::PARAMETER_KEYS);
+    }
 }

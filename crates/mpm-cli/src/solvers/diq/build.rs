@@ -2,26 +2,26 @@
 //! and colliders as free-slip boundaries, coupled to mixed TLMPM solids when the scene has
 //! solid materials, and the scene keys of its set-up errors.
 
-use crate::build::{
-    boundaries, on_instability, setup_error, time_step_policy, unused_materials, vector, Built,
-    ErrorKeys, Start,
-};
+use crate::build::{boundaries, setup_error, step_control, unused_materials, Built, ErrorKeys, Start};
 use crate::error::SceneError;
 use super::scene::DiqScene;
 use crate::scene::LoadedScene;
-use mpm_core::{Dim, DimOps, Kernel, Solver};
-use mpm_diq::{CouplingIteration, DiqCoupled, DiqFluid, DiqParams, SolidParams};
+use mpm_core::{Dim, DimOps, Kernel, Parameter, Solver};
+use mpm_diq::{settings, CouplingIteration, DiqCoupled, DiqFluid, DiqParams, SolidParams};
 use mpm_tlmpm::TlmpmParams;
 
-/// The scene keys of the DIQ solver's parameter names (`SetupError::InvalidParameter`).
-const PARAMETER_KEYS: [(&str, &str); 6] = [
-    ("grid", "grid.max"),
-    ("gravity", "simulation.gravity"),
-    ("pressure.rel_tol", "diq.rel_tol"),
-    ("pressure.max_iterations", "diq.max_iterations"),
-    ("mass", "bodies"),
-    ("lambda", "materials"),
-];
+/// The scene keys of the DIQ solvers' parameters (`SetupError::InvalidParameter`) beyond those
+/// of `mpm-core` (`CORE_PARAMETER_KEYS`).
+pub(crate) const PARAMETER_KEYS: [(Parameter, &str); 5] = {
+    use mpm_diq::parameters::*;
+    [
+        (GRID, "grid.max"),
+        (PRESSURE_REL_TOL, "diq.rel_tol"),
+        (PRESSURE_MAX_ITERATIONS, "diq.max_iterations"),
+        (MASS, "bodies"),
+        (LAMBDA, "materials"),
+    ]
+};
 
 /// Builds the DIQ fluid solver from the sampled scene, with the start-up warnings (unused
 /// materials).
@@ -43,9 +43,7 @@ where
     let warnings = unused_materials(sc, &particles, None);
     let s = &sc.simulation;
     let params = DiqParams {
-        time_step: time_step_policy(s),
-        gravity: vector::<D>(&s.gravity),
-        on_instability: on_instability(s),
+        step: step_control::<D>(s),
         pressure: own.diq.pressure(),
         position_correction: own.diq.position_correction,
         gradient_quadrature: own.diq.gradient_quadrature,
@@ -53,8 +51,8 @@ where
     let keys = ErrorKeys {
         parameters: &PARAMETER_KEYS,
         settings: vec![
-            ("walls".to_string(), "boundaries".to_string()),
-            ("colliders".to_string(), "boundaries".to_string()),
+            (settings::WALLS.to_string(), "boundaries".to_string()),
+            (settings::COLLIDERS.to_string(), "boundaries".to_string()),
         ],
     };
     let fail = |e| setup_error(scene, &bodies, e, &keys);
@@ -90,4 +88,13 @@ where
         warnings,
         notes: Vec::new(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    /// Every parameter `mpm-diq` declares has one scene key in [`PARAMETER_KEYS`].
+    #[test]
+    fn every_declared_parameter_has_a_scene_key() {
+        crate::build::assert_parameter_keys("diq", mpm_diq::parameters::ALL, &super::PARAMETER_KEYS);
+    }
 }

@@ -3,8 +3,8 @@
 //! the scene keys of its set-up errors.
 
 use crate::build::{
-    boundaries, damping, gravity_ramp, on_instability, setup_error, time_step_policy,
-    unused_materials, vector, BodyInfo, Built, ErrorKeys, Start,
+    boundaries, setup_error, step_control, unused_materials, vector, BodyInfo, Built, ErrorKeys,
+    Start,
 };
 use crate::error::SceneError;
 use super::multigrid::{CouplingDef, CouplingKindDef, DragDef, FrictionModel};
@@ -13,37 +13,39 @@ use crate::scene::{InitialVolume, LoadedScene, Scene, TransferKind, FLIP_BLEND_D
 use mpm_core::geostatic::set_geostatic;
 use mpm_core::material::{Interaction, Scaling};
 use mpm_core::volume::estimate_volumes;
-use mpm_core::{Dim, DimOps, GridSpec, Material, Particles};
+use mpm_core::{Dim, DimOps, GridSpec, Material, Parameter, Particles};
 use mpm_explicit::{
     too_compressible, BuoyancyPenalty, ContactCoupling, Coupling, CouplingKind, Dissolution, Drag,
     ExplicitParams, ExplicitSolver, Friction, Mixing, Phases, Porous, PressureBuoyancy, Transfer,
 };
 
-/// The scene keys of the explicit solver's parameter names (`SetupError::InvalidParameter`).
-const PARAMETER_KEYS: [(&str, &str); 7] = [
-    ("grid.dx", "grid.dx"),
-    ("grid.size", "grid.max"),
-    ("flip blend", "simulation.flip_blend"),
-    ("soft_walls.lookahead", "simulation.soft_walls.lookahead"),
-    ("local damping", "simulation.local_damping"),
-    ("viscous damping", "simulation.viscous_damping"),
-    ("gravity ramp", "simulation.gravity_ramp"),
-];
+/// The scene keys of the explicit solver's parameters (`SetupError::InvalidParameter`) beyond
+/// those of `mpm-core` (`CORE_PARAMETER_KEYS`).
+pub(crate) const PARAMETER_KEYS: [(Parameter, &str); 4] = {
+    use mpm_explicit::parameters::*;
+    [
+        (GRID_DX, "grid.dx"),
+        (GRID_SIZE, "grid.max"),
+        (FLIP_BLEND, "simulation.flip_blend"),
+        (SOFT_WALLS_LOOKAHEAD, "simulation.soft_walls.lookahead"),
+    ]
+};
 
 /// The scene keys of the explicit solver's set-up errors: its parameters, and its multi-grid
 /// settings (`phases`, `coupling <i>`, `porous`, `mixing`, `dissolution`).
 fn error_keys(own: &ExplicitScene) -> ErrorKeys<'static> {
+    use mpm_explicit::settings::{self, DISSOLUTION, MIXING, PHASES, POROUS};
     let mut settings: Vec<(String, String)> = [
-        ("phases", "bodies"),
-        ("porous", "porous"),
-        ("mixing", "mixing"),
-        ("dissolution", "dissolution"),
+        (PHASES, "bodies"),
+        (POROUS, "porous"),
+        (MIXING, "mixing"),
+        (DISSOLUTION, "dissolution"),
     ]
     .into_iter()
     .map(|(s, k)| (s.to_string(), k.to_string()))
     .collect();
     settings.extend(
-        (0..own.couplings.len()).map(|i| (format!("coupling {i}"), format!("couplings[{i}]"))),
+        (0..own.couplings.len()).map(|i| (settings::coupling(i), format!("couplings[{i}]"))),
     );
     ErrorKeys {
         parameters: &PARAMETER_KEYS,
@@ -66,11 +68,7 @@ pub fn params<const D: usize>(scene: &LoadedScene, own: &ExplicitScene) -> Expli
                 unreachable!("the explicit scene module refuses transfer = \"persistent\"")
             }
         },
-        gravity: vector::<D>(&s.gravity),
-        gravity_ramp: gravity_ramp(s),
-        damping: damping(s),
-        time_step: time_step_policy(s),
-        on_instability: on_instability(s),
+        step: step_control::<D>(s),
         volume: s.volume_update,
         soft_walls: s.soft_walls,
         body_force: None,
@@ -274,6 +272,12 @@ mod tests {
     use mpm_core::SetupError;
     use std::path::Path;
 
+    /// Every parameter `mpm-explicit` declares has one scene key in [`PARAMETER_KEYS`].
+    #[test]
+    fn every_declared_parameter_has_a_scene_key() {
+        crate::build::assert_parameter_keys("explicit", mpm_explicit::parameters::ALL, &super::PARAMETER_KEYS);
+    }
+
     const SCENE: &str = "[simulation]\ndim = 2\nsteps = 1\n\n[grid]\nmin = [0.0, 0.0]\n\
         max = [0.5, 0.5]\ndx = 0.05\n\n[[materials]]\nname = \"water\"\npreset = \"water\"\n\n\
         [[bodies]]\nmaterial = \"water\"\nshape = \"box\"\nmin = [0.1, 0.1]\nmax = [0.2, 0.2]\n\n\
@@ -286,12 +290,20 @@ mod tests {
         let own = scene.scene.explicit().expect("an explicit scene");
         let line_of = |header: &str| SCENE.lines().position(|l| l == header).map(|i| i + 1);
         for (setting, key, line) in [
-            ("coupling 0", "couplings[0]", line_of("[[couplings]]")),
-            ("mixing", "mixing", None),
-            ("phases", "bodies", line_of("[[bodies]]")),
+            (
+                mpm_explicit::settings::coupling(0),
+                "couplings[0]",
+                line_of("[[couplings]]"),
+            ),
+            (mpm_explicit::settings::MIXING.to_string(), "mixing", None),
+            (
+                mpm_explicit::settings::PHASES.to_string(),
+                "bodies",
+                line_of("[[bodies]]"),
+            ),
         ] {
             let e = SetupError::InvalidSetting {
-                setting: setting.to_string(),
+                setting: setting.clone(),
                 reason: "inconsistent".to_string(),
             };
             let err = setup_error(&scene, &[], e, &error_keys(own));
@@ -310,6 +322,7 @@ mod tests {
 
     #[test]
     fn parameter_errors_point_at_their_scene_keys() {
+        use mpm_explicit::parameters::{FLIP_BLEND, GRID_DX, GRID_SIZE, SOFT_WALLS_LOOKAHEAD};
         let scene = parse(Path::new("s.toml"), SCENE).expect("valid scene");
         let own = scene.scene.explicit().expect("an explicit scene");
         let line_of = |prefix: &str| {
@@ -320,16 +333,16 @@ mod tests {
         };
         // Keys the scene does not give are located at their table.
         for (name, key, line) in [
-            ("grid.dx", "grid.dx", line_of("dx =")),
-            ("grid.size", "grid.max", line_of("max = [0.5")),
-            ("cfl", "simulation.cfl", line_of("[simulation]")),
+            (GRID_DX, "grid.dx", line_of("dx =")),
+            (GRID_SIZE, "grid.max", line_of("max = [0.5")),
             (
-                "flip blend",
-                "simulation.flip_blend",
+                mpm_core::parameters::CFL,
+                "simulation.cfl",
                 line_of("[simulation]"),
             ),
+            (FLIP_BLEND, "simulation.flip_blend", line_of("[simulation]")),
             (
-                "soft_walls.lookahead",
+                SOFT_WALLS_LOOKAHEAD,
                 "simulation.soft_walls.lookahead",
                 line_of("[simulation]"),
             ),

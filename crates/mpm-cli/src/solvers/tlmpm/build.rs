@@ -4,8 +4,7 @@
 //! errors.
 
 use crate::build::{
-    boundaries, damping, gravity_ramp, on_instability, setup_error, time_step_policy,
-    unused_materials, vector, Built, ErrorKeys, Start,
+    boundaries, setup_error, step_control, unused_materials, vector, Built, ErrorKeys, Start,
 };
 use crate::error::SceneError;
 use super::scene::{
@@ -14,32 +13,33 @@ use super::scene::{
 use crate::scene::{BoundaryGeometry, LoadedScene, TransferKind, FLIP_BLEND_DEFAULT};
 use mpm_core::quasistatic::GravityRamp;
 use mpm_core::sampling::vector_text;
-use mpm_core::{Dim, DimOps, GridSpec, Particles, Vector};
+use mpm_core::{Dim, DimOps, GridSpec, Parameter, Particles, Vector};
 use mpm_tlmpm::{
-    ClampPlane, ContactParams, ContactRadius, FixedRegion, ImplicitParams, LinearSolver,
+    settings, ClampPlane, ContactParams, ContactRadius, FixedRegion, ImplicitParams, LinearSolver,
     NewtonParams, NodalLoad, NodeSelection, Obstacle, ParticleLoad, SurfaceTraction, TlmpmParams,
     Transfer,
 };
 
-/// The scene keys of the TLMPM solver's parameter names (`SetupError::InvalidParameter`).
-const PARAMETER_KEYS: [(&str, &str); 16] = [
-    ("grid.dx", "grid.dx"),
-    ("grid.size", "grid.max"),
-    ("flip blend", "simulation.flip_blend"),
-    ("gravity", "simulation.gravity"),
-    ("gravity ramp", "simulation.gravity_ramp"),
-    ("local damping", "simulation.local_damping"),
-    ("viscous damping", "simulation.viscous_damping"),
-    ("contact.radius", "tlmpm.contact_radius"),
-    ("reference_update.epsilon", "tlmpm.reference_update.epsilon"),
-    ("reference_update.eta", "tlmpm.reference_update.eta"),
-    ("linear_solver", "tlmpm.linear_solver"),
-    ("material.kind", "materials"),
-    ("material.plasticity", "materials"),
-    ("particles", "bodies"),
-    ("particle.mass", "bodies"),
-    ("particle.volume0", "bodies"),
-];
+/// The scene keys of the TLMPM solver's parameters (`SetupError::InvalidParameter`) beyond
+/// those of `mpm-core` (`CORE_PARAMETER_KEYS`). The parameters of a restored state
+/// (`mpm_tlmpm::parameters::restore`) come from a checkpoint, not from the scene.
+pub(crate) const PARAMETER_KEYS: [(Parameter, &str); 12] = {
+    use mpm_tlmpm::parameters::*;
+    [
+        (GRID_DX, "grid.dx"),
+        (GRID_SIZE, "grid.max"),
+        (FLIP_BLEND, "simulation.flip_blend"),
+        (CONTACT_RADIUS, "tlmpm.contact_radius"),
+        (REFERENCE_UPDATE_EPSILON, "tlmpm.reference_update.epsilon"),
+        (REFERENCE_UPDATE_ETA, "tlmpm.reference_update.eta"),
+        (LINEAR_SOLVER, "tlmpm.linear_solver"),
+        (MATERIAL_KIND, "materials"),
+        (MATERIAL_PLASTICITY, "materials"),
+        (PARTICLES, "bodies"),
+        (PARTICLE_MASS, "bodies"),
+        (PARTICLE_VOLUME0, "bodies"),
+    ]
+};
 
 /// The TLMPM solver parameters of the scene: walls and colliders become penalty obstacles.
 pub fn params<const D: usize>(
@@ -80,11 +80,7 @@ pub fn params<const D: usize>(
             },
             TransferKind::Persistent => Transfer::Persistent,
         },
-        gravity: vector::<D>(&sc.simulation.gravity),
-        gravity_ramp: gravity_ramp(&sc.simulation),
-        damping: damping(&sc.simulation),
-        time_step: time_step_policy(&sc.simulation),
-        on_instability: on_instability(&sc.simulation),
+        step: step_control::<D>(&sc.simulation),
         fixed: own
             .fixed
             .iter()
@@ -218,10 +214,10 @@ where
     let keys = ErrorKeys {
         parameters: &PARAMETER_KEYS,
         settings: (0..own.nodal_loads.len())
-            .map(|i| (format!("nodal load {i}"), format!("nodal_loads[{i}]")))
+            .map(|i| (settings::nodal_load(i), format!("nodal_loads[{i}]")))
             .chain(
                 (0..own.tractions.len())
-                    .map(|i| (format!("traction {i}"), format!("tractions[{i}]"))),
+                    .map(|i| (settings::traction(i), format!("tractions[{i}]"))),
             )
             .collect(),
     };
@@ -269,7 +265,14 @@ mod tests {
     use crate::error::CliError;
     use crate::scene::parse;
     use mpm_core::SetupError;
+    use mpm_tlmpm::parameters;
     use std::path::Path;
+
+    /// Every parameter `mpm-tlmpm` declares has one scene key in [`PARAMETER_KEYS`].
+    #[test]
+    fn every_declared_parameter_has_a_scene_key() {
+        crate::build::assert_parameter_keys("tlmpm", mpm_tlmpm::parameters::ALL, &super::PARAMETER_KEYS);
+    }
 
     const SCENE: &str = "[simulation]\ndim = 2\nsolver = \"tlmpm\"\nsteps = 1\ndt = 1e-3\n\
         gravity = [0.0, -9.81]\n\n[grid]\nmin = [0.0, 0.0]\nmax = [0.5, 0.5]\ndx = 0.05\n\n\
@@ -308,20 +311,32 @@ mod tests {
         };
         for (e, key, at) in [
             (
-                invalid("contact.radius"),
+                invalid(parameters::CONTACT_RADIUS),
                 "tlmpm.contact_radius",
                 line("contact_radius", 0),
             ),
-            (invalid("gravity"), "simulation.gravity", line("gravity", 0)),
-            (invalid("dt"), "simulation.dt", line("dt =", 0)),
-            (invalid("grid.size"), "grid.max", line("max = [0.5", 0)),
             (
-                invalid("reference_update.eta"),
+                invalid(mpm_core::parameters::GRAVITY),
+                "simulation.gravity",
+                line("gravity", 0),
+            ),
+            (
+                invalid(mpm_core::parameters::DT),
+                "simulation.dt",
+                line("dt =", 0),
+            ),
+            (
+                invalid(parameters::GRID_SIZE),
+                "grid.max",
+                line("max = [0.5", 0),
+            ),
+            (
+                invalid(parameters::REFERENCE_UPDATE_ETA),
                 "tlmpm.reference_update.eta",
                 line("[tlmpm]", 0),
             ),
             (
-                invalid("no such name"),
+                invalid(Parameter::new("no such name")),
                 "simulation.solver",
                 line("solver", 0),
             ),
