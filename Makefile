@@ -9,7 +9,7 @@
 CARGO ?= cargo
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
-.PHONY: run test deps
+.PHONY: run test deps mpi-deps mpi-test
 
 deps:
 	@if ! pkg-config --exists hdf5 2>/dev/null; then \
@@ -26,3 +26,24 @@ run: deps
 
 test: deps
 	$(CARGO) test --workspace --release
+
+# The distributed explicit solver under MPI (docs/distributed.md): installs Open MPI and libclang
+# (rsmpi's bindings) when missing, lints mpm-dist with its `mpi` feature, builds the MPI check
+# and runs it on 1, 2, 3 and 4 ranks (more ranks than cores: --oversubscribe, 1 thread each).
+MPIRUN ?= mpirun --allow-run-as-root --oversubscribe
+
+mpi-deps:
+	@if ! command -v mpirun >/dev/null 2>&1 || ! command -v mpicc >/dev/null 2>&1 || \
+	    ! ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1; then \
+		echo "==> installing libopenmpi-dev, openmpi-bin and libclang-dev"; \
+		$(SUDO) apt-get update -qq && \
+		$(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+			libopenmpi-dev openmpi-bin libclang-dev; \
+	fi
+
+mpi-test: deps mpi-deps
+	$(CARGO) clippy --workspace --all-targets --features mpm-dist/mpi -- -D warnings
+	$(CARGO) build --release --workspace --examples --features mpm-dist/mpi
+	for n in 1 2 3 4; do \
+		RAYON_NUM_THREADS=1 $(MPIRUN) -n $$n target/release/examples/mpi_check identity || exit 1; \
+	done

@@ -218,6 +218,78 @@ impl<const D: usize> Particles<D> {
         }
     }
 
+    /// Appends the particles of `other`, which must have the same columns (panics otherwise),
+    /// after this set's: e.g. the halo copies a process receives from its peers.
+    pub fn append(&mut self, other: &Self) {
+        fn extend<T: Copy>(to: &mut Option<Vec<T>>, from: &Option<Vec<T>>) {
+            match (to, from) {
+                (Some(t), Some(f)) => t.extend_from_slice(f),
+                (None, None) => {}
+                _ => panic!("Particles::append: the two sets have different columns"),
+            }
+        }
+        self.x.extend_from_slice(&other.x);
+        self.v.extend_from_slice(&other.v);
+        self.mass.extend_from_slice(&other.mass);
+        self.volume0.extend_from_slice(&other.volume0);
+        self.material.extend_from_slice(&other.material);
+        self.affine.extend_from_slice(&other.affine);
+        extend(&mut self.def_grad, &other.def_grad);
+        extend(&mut self.jacobian, &other.jacobian);
+        extend(&mut self.plastic, &other.plastic);
+        extend(&mut self.phase, &other.phase);
+        extend(&mut self.volume_fraction, &other.volume_fraction);
+        extend(&mut self.concentration, &other.concentration);
+    }
+
+    /// Keeps the particles `p` with `keep[p]`, in order (in place; `keep` has one entry per
+    /// particle).
+    pub fn retain(&mut self, keep: &[bool]) {
+        fn run<T>(v: &mut Vec<T>, keep: &[bool]) {
+            let mut k = keep.iter();
+            v.retain(|_| *k.next().expect("one flag per particle"));
+        }
+        fn opt<T>(v: &mut Option<Vec<T>>, keep: &[bool]) {
+            if let Some(v) = v {
+                run(v, keep);
+            }
+        }
+        assert_eq!(keep.len(), self.len(), "one flag per particle");
+        run(&mut self.x, keep);
+        run(&mut self.v, keep);
+        run(&mut self.mass, keep);
+        run(&mut self.volume0, keep);
+        run(&mut self.material, keep);
+        run(&mut self.affine, keep);
+        opt(&mut self.def_grad, keep);
+        opt(&mut self.jacobian, keep);
+        opt(&mut self.plastic, keep);
+        opt(&mut self.phase, keep);
+        opt(&mut self.volume_fraction, keep);
+        opt(&mut self.concentration, keep);
+    }
+
+    /// Keeps the first `n` particles (all of them when there are fewer).
+    pub fn truncate(&mut self, n: usize) {
+        fn cut<T>(c: &mut Option<Vec<T>>, n: usize) {
+            if let Some(c) = c {
+                c.truncate(n);
+            }
+        }
+        self.x.truncate(n);
+        self.v.truncate(n);
+        self.mass.truncate(n);
+        self.volume0.truncate(n);
+        self.material.truncate(n);
+        self.affine.truncate(n);
+        cut(&mut self.def_grad, n);
+        cut(&mut self.jacobian, n);
+        cut(&mut self.plastic, n);
+        cut(&mut self.phase, n);
+        cut(&mut self.volume_fraction, n);
+        cut(&mut self.concentration, n);
+    }
+
     /// Phase of particle `p` (0 when the column does not exist).
     #[inline]
     pub fn phase_of(&self, p: usize) -> u32 {
@@ -277,5 +349,57 @@ impl<const D: usize> Particles<D> {
         }
         b += r * (usize::from(c.volume_fraction) + usize::from(c.concentration));
         b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Particles<2> {
+        let mut ps = Particles::new(Columns {
+            deformation_gradient: true,
+            jacobian: true,
+            phase: true,
+            ..Columns::default()
+        });
+        for k in 0..5 {
+            let init = ParticleInit {
+                x: Vector::<2>::new(k as Real, 0.5),
+                v: Vector::<2>::new(0.0, -(k as Real)),
+                mass: 1.0 + k as Real,
+                volume0: 0.25,
+                material: k % 2,
+                affine: Matrix::<2>::identity() * k as Real,
+            };
+            let extra = ParticleExtra {
+                phase: k % 2,
+                ..ParticleExtra::default()
+            };
+            ps.push_with(init, extra);
+        }
+        ps
+    }
+
+    #[test]
+    fn truncate_then_append_restores_the_set() {
+        let all = sample();
+        let mut head = all.clone();
+        head.truncate(2);
+        assert_eq!(head.len(), 2);
+        assert_eq!(head.phase.as_ref().map(Vec::len), Some(2));
+        head.append(&all.select(&[2, 3, 4]));
+        assert_eq!(head, all);
+        let mut odd = all.clone();
+        odd.retain(&[false, true, false, true, false]);
+        assert_eq!(odd, all.select(&[1, 3]));
+        assert_eq!(odd.phase, Some(vec![1, 1]));
+    }
+
+    #[test]
+    #[should_panic(expected = "different columns")]
+    fn append_refuses_other_columns() {
+        let mut a = sample();
+        a.append(&Particles::new(Columns::default()));
     }
 }

@@ -117,14 +117,14 @@ impl<const D: usize> Moving<D> {
             + len(&self.plastic)
     }
 
-    /// Splits the columns into runs of at most `size` particles.
-    fn chunks(&mut self, size: usize) -> Vec<Chunk<'_, D>> {
+    /// Splits the columns of the first `active` particles into runs of at most `size`.
+    fn chunks(&mut self, size: usize, active: usize) -> Vec<Chunk<'_, D>> {
         fn split<'a, T>(s: &mut Option<&'a mut [T]>, n: usize) -> Option<&'a mut [T]> {
             let (head, tail) = s.take()?.split_at_mut(n);
             *s = Some(tail);
             Some(head)
         }
-        let n = self.x.len();
+        let n = active.min(self.x.len());
         let (mut x, mut v, mut c) = (
             self.x.as_mut_slice(),
             self.v.as_mut_slice(),
@@ -278,7 +278,8 @@ where
     /// when [`Self::signal_speed`] is set (0 otherwise), or the first (lowest-index) failing
     /// particle; the particles then hold the step's partial result. `blocks`, `grids` and, with
     /// FLIP, `velocity_old` have one entry per phase; each phase's block windows must hold its
-    /// grid's velocities ([`Blocks::load_velocities`]).
+    /// grid's velocities ([`Blocks::load_velocities`]). Only the first `active` particles are
+    /// advanced and checked; the others keep their state.
     pub fn advance(
         &self,
         particles: &mut Particles<D>,
@@ -286,6 +287,7 @@ where
         grids: &[GridNodes<D>],
         velocity_old: Option<&[Vec<Vector<D>>]>,
         dt: Real,
+        active: usize,
     ) -> Result<Real, (Location, Violation, Real)> {
         type Fault = Option<(usize, Violation, Real)>;
         fn first(a: Fault, b: Fault) -> Fault {
@@ -302,7 +304,7 @@ where
             minv: self.kernel.mls_inertia_inv(self.spec.dx),
         };
         let (fault, signal) = moving
-            .chunks(CHUNK)
+            .chunks(CHUNK, active)
             .into_par_iter()
             .map(|mut chunk| {
                 let run = (fixed, blocks, grids, velocity_old);

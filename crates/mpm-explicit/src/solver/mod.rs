@@ -21,9 +21,9 @@ use mpm_core::mirror::MirrorWalls;
 use mpm_core::solver::nan_max;
 use mpm_core::timestep::{choose_dt, stable_dt};
 use mpm_core::{
-    retry_halving, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec, Location, Material,
-    NodeLayout, OnInstability, Particles, Real, SetupError, Stage, StagePlan, StageTimes,
-    StepError, StepInfo, StepStart, TimeStepPolicy, Vector, Violation,
+    retry_halving, Alone, Diagnostics, Dim, DimOps, Failure, GridNodes, GridSpec, Location,
+    Material, NodeLayout, OnInstability, Particles, Peers, Real, SetupError, Stage, StagePlan,
+    StageTimes, StepError, StepInfo, StepStart, TimeStepPolicy, Vector, Violation,
 };
 use rayon::prelude::*;
 use std::convert::Infallible;
@@ -221,16 +221,33 @@ where
     /// [`Solver::step`](mpm_core::Solver::step) on the calling thread, with the shared step
     /// machinery.
     fn advance_step(&mut self) -> Result<StepInfo, StepError<Infallible>> {
+        self.step_among(self.particles.len(), &mut Alone)
+    }
+
+    /// One step of a process that holds part of a run: the first `active` particles are this
+    /// process's own, the rest halo copies of its peers' particles near its own, which take
+    /// part in every transfer to the grid but are neither advanced nor checked by G2P (their
+    /// state after the step is meaningless; the driver replaces them). The time step and the
+    /// outcome of each attempt are agreed with `peers`; with [`Alone`] and every particle
+    /// active this is [`Solver::step`](mpm_core::Solver::step) on the calling thread. A
+    /// failure names a particle by the index `peers` maps it to.
+    pub fn step_among<P: Peers<Infallible>>(
+        &mut self,
+        active: usize,
+        peers: &mut P,
+    ) -> Result<StepInfo, StepError<Infallible>> {
         let start = StepStart {
             step: self.steps,
             time: self.time,
         };
         let t = Instant::now();
-        let dt0 = self.choose_dt();
+        let dt0 = self.choose_dt().map_err(Failure::guard(Stage::TIME_STEP));
+        let dt0 = peers.agree_dt(dt0);
         self.stats.add(Stage::TIME_STEP, t.elapsed());
-        let dt0 = dt0.map_err(|e| start.error(Failure::Guard(Stage::TIME_STEP, e), 0.0, 0))?;
+        let dt0 = dt0.map_err(|f| start.error(f, 0.0, 0))?;
         let policy = self.params.step.on_instability;
-        let (_, dt, retries) = retry_halving(policy, start, dt0, |dt| self.attempt(dt))?;
+        let attempt = |dt| self.attempt(dt, active, peers);
+        let (_, dt, retries) = retry_halving(policy, start, dt0, attempt)?;
         self.time += dt;
         self.steps += 1;
         Ok(StepInfo {
@@ -241,6 +258,23 @@ where
             events: Vec::new(),
             residual_histories: Vec::new(),
         })
+    }
+
+    /// Replaces the particles between steps (a distributed driver's exchange of halo copies
+    /// and migrating particles), checking them as [`ExplicitSolver::new`] does. Time, step
+    /// count and the largest signal speed of the particles the last step advanced are kept:
+    /// with peers, the time step is agreed over every process's particles.
+    pub fn replace_particles(&mut self, particles: Particles<D>) -> Result<(), SetupError> {
+        crate::validate::validate(&self.spec, &self.params, &self.materials, &particles)?;
+        self.particles = particles;
+        Ok(())
+    }
+
+    /// Moves the particles out, leaving none (for editing them in place before
+    /// [`Self::replace_particles`] hands them back).
+    pub fn take_particles(&mut self) -> Particles<D> {
+        let empty = Particles::new(self.particles.columns());
+        std::mem::replace(&mut self.particles, empty)
     }
 
     /// The step under the time-step policy, or why none can be taken.
@@ -259,21 +293,28 @@ where
     /// One attempt at a step of size `dt`: the stage plan. G2P updates the particles in place;
     /// when the policy retries failed steps, their moving columns are saved first and put back
     /// on failure, so a retry starts from the same state.
-    fn attempt(&mut self, dt: Real) -> Result<(), Failure<Infallible>> {
+    fn attempt<P: Peers<Infallible>>(
+        &mut self,
+        dt: Real,
+        active: usize,
+        peers: &mut P,
+    ) -> Result<(), Failure<Infallible>> {
         let retries = matches!(self.params.step.on_instability, OnInstability::Retry { .. });
         self.signal = None;
         if retries {
             self.ws.backup.save(&self.particles);
         }
-        let r = self.stages(dt);
+        let r = self.stages(dt, active);
+        let r = peers.agree(r);
         if r.is_err() && retries {
             self.ws.backup.restore(&mut self.particles);
         }
         r
     }
 
-    /// The stages of one attempt at a step of size `dt`.
-    fn stages(&mut self, dt: Real) -> Result<(), Failure<Infallible>> {
+    /// The stages of one attempt at a step of size `dt`; G2P advances the first `active`
+    /// particles.
+    fn stages(&mut self, dt: Real, active: usize) -> Result<(), Failure<Infallible>> {
         self.sort_particles();
         if self.params.volume == VolumeUpdate::Reestimate {
             self.reestimate_volumes();
@@ -289,7 +330,7 @@ where
                 .map_err(Failure::guard(crate::stages::COUPLING))?;
         }
         let signal = self
-            .grid_to_particle(dt)
+            .grid_to_particle(dt, active)
             .map_err(Failure::guard(Stage::G2P))?;
         if self.has_extra_state() {
             self.commit_extra();

@@ -43,7 +43,8 @@ where
     /// particles hold the partial result. Time and the step count do not advance.
     pub fn run(self) -> Result<(), (Location, Violation, Real)> {
         self.solver.signal = None;
-        self.solver.grid_to_particle(self.dt)?;
+        let all = self.solver.particles.len();
+        self.solver.grid_to_particle(self.dt, all)?;
         if self.solver.has_extra_state() {
             self.solver.commit_extra();
         }

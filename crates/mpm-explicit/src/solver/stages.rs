@@ -247,10 +247,12 @@ where
 
     /// Stage: G2P with guard checks, writing the particles in place. The multi-grid particle
     /// state is gathered first, from the positions at the start of the step, into scratch.
-    /// Returns the new state's largest signal speed (m/s) under an adaptive dt, else 0.
+    /// Advances the first `active` particles only. Returns the new state's largest signal
+    /// speed (m/s) under an adaptive dt, else 0.
     pub(super) fn grid_to_particle(
         &mut self,
         dt: Real,
+        active: usize,
     ) -> Result<Real, (Location, Violation, Real)> {
         let t = Instant::now();
         let flip = matches!(self.params.transfer, Transfer::Flip { .. });
@@ -289,6 +291,7 @@ where
             &self.ws.grids,
             flip.then_some(self.ws.velocity_old.as_slice()),
             dt,
+            active,
         );
         self.stats.add(Stage::G2P, t.elapsed());
         r
