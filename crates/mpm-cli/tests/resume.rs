@@ -115,10 +115,24 @@ fn resume_rejects_files_that_do_not_fit() {
     // Other particle columns (a fluid scene has J, not F and plastic state).
     let water = write(&d, "water.toml", WATER_2D);
     try_resume(&water, &ck);
-    // A grid the particles do not fit in.
+    // A changed grid or dx: refused before the state is read, naming the key and its line.
     let small = SNOW_2D.replace("max = [0.5, 0.5]", "max = [0.28, 0.5]");
     let small = write(&d, "small.toml", &small);
-    assert!(try_resume(&small, &ck).contains("does not fit"));
+    let err = try_resume(&small, &ck);
+    assert!(
+        err.contains("grid.max[0]") && err.contains("differs from the scene stored in checkpoint"),
+        "{err}"
+    );
+    let finer = write(
+        &d,
+        "finer.toml",
+        &SNOW_2D.replace("dx = 0.015625", "dx = 0.0078125"),
+    );
+    let err = try_resume(&finer, &ck);
+    assert!(
+        err.contains("grid.dx") && err.contains("dx = 0.0078125"),
+        "{err}"
+    );
     // A missing file.
     try_resume(&snow, &d.join("nope.h5"));
 }

@@ -8,9 +8,11 @@
 
 mod outputs;
 mod progress;
+mod scene_diff;
 mod signals;
 mod summary;
 
+pub use scene_diff::MAY_CHANGE;
 pub use signals::stop_on_signals;
 
 use crate::build::{build, AnyBuilt, Built};

@@ -101,6 +101,30 @@ where
                 ck.header.dim
             )));
         }
+        if ck.header.scene != self.scene.text {
+            match super::scene_diff::first_difference(&ck.header.scene, &self.scene.text) {
+                Ok(None) => {}
+                Ok(Some(key)) => {
+                    let may = super::MAY_CHANGE.map(|k| format!("`{k}`")).join(", ");
+                    return Err(self
+                        .scene
+                        .error(
+                            &key,
+                            format!(
+                                "differs from the scene stored in checkpoint {}: a resumed run \
+                                 continues that scene; only {may} may change",
+                                path.display()
+                            ),
+                        )
+                        .into());
+                }
+                Err(e) => self.warn(format!(
+                    "the scene stored in checkpoint {} is not readable ({e}); it is not \
+                     compared with this one",
+                    path.display()
+                )),
+            }
+        }
         // The solver rebuilds itself around the restored state, re-checking the particles
         // against this scene's grid and materials.
         self.solver
@@ -110,12 +134,6 @@ where
         self.first_time = ck.header.time;
         self.last_dt = ck.header.dt;
         self.last_checkpoint_step = Some(ck.header.step);
-        if ck.header.scene != self.scene.text {
-            self.warn(format!(
-                "the scene file differs from the scene stored in checkpoint {}",
-                path.display()
-            ));
-        }
         let attr = |name: &str| {
             ck.header
                 .attrs
