@@ -28,9 +28,12 @@ test: deps
 	$(CARGO) test --workspace --release
 
 # The distributed explicit solver under MPI (docs/distributed.md): installs Open MPI and libclang
-# (rsmpi's bindings) when missing, lints mpm-dist with its `mpi` feature, builds the MPI check
-# and runs it on 1, 2, 3 and 4 ranks (more ranks than cores: --oversubscribe, 1 thread each).
+# (rsmpi's bindings) when missing, lints with the `mpi` features, builds mpm-cli and the MPI
+# check with them, runs the library's identity check on 1, 2, 3 and 4 ranks (more ranks than
+# cores: --oversubscribe, 1 thread each) and mpm-cli under mpirun against one process.
+# Afterwards target/release/mpm-cli links MPI; `make run` rebuilds the default one.
 MPIRUN ?= mpirun --allow-run-as-root --oversubscribe
+export MPIRUN
 
 mpi-deps:
 	@if ! command -v mpirun >/dev/null 2>&1 || ! command -v mpicc >/dev/null 2>&1 || \
@@ -42,8 +45,9 @@ mpi-deps:
 	fi
 
 mpi-test: deps mpi-deps
-	$(CARGO) clippy --workspace --all-targets --features mpm-dist/mpi -- -D warnings
-	$(CARGO) build --release --workspace --examples --features mpm-dist/mpi
+	$(CARGO) clippy --workspace --all-targets --features mpm-cli/mpi -- -D warnings
+	$(CARGO) build --release --workspace --bins --examples --features mpm-cli/mpi
 	for n in 1 2 3 4; do \
 		RAYON_NUM_THREADS=1 $(MPIRUN) -n $$n target/release/examples/mpi_check identity || exit 1; \
 	done
+	scripts/mpi_cli_check.sh target/release/mpm-cli

@@ -4,6 +4,7 @@
 
 pub mod build;
 pub mod check;
+pub mod distributed;
 pub mod error;
 pub mod font;
 pub mod info;
@@ -20,12 +21,15 @@ pub use error::{CliError, SceneError};
 
 /// `println!` that never panics. The tool's messages (progress, warnings, `check`'s report) may
 /// go to a pipe whose reader has gone (`mpm-cli run scene.toml | head`) or to a terminal that
-/// hung up; a failed write is ignored, so a run still finishes and writes its files.
+/// hung up; a failed write is ignored, so a run still finishes and writes its files. On several
+/// ranks only rank 0 prints ([`distributed::root`]).
 #[macro_export]
 macro_rules! outln {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
+        if $crate::distributed::root() {
+            let _ = writeln!(std::io::stdout(), $($arg)*);
+        }
     }};
 }
 
@@ -34,8 +38,10 @@ macro_rules! outln {
 macro_rules! out {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let mut stdout = std::io::stdout();
-        let _ = write!(stdout, $($arg)*).and_then(|_| stdout.flush());
+        if $crate::distributed::root() {
+            let mut stdout = std::io::stdout();
+            let _ = write!(stdout, $($arg)*).and_then(|_| stdout.flush());
+        }
     }};
 }
 
@@ -44,7 +50,9 @@ macro_rules! out {
 macro_rules! errln {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
+        if $crate::distributed::root() {
+            let _ = writeln!(std::io::stderr(), $($arg)*);
+        }
     }};
 }
 
@@ -53,6 +61,8 @@ macro_rules! errln {
 macro_rules! err {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let _ = write!(std::io::stderr(), $($arg)*);
+        if $crate::distributed::root() {
+            let _ = write!(std::io::stderr(), $($arg)*);
+        }
     }};
 }

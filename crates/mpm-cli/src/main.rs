@@ -239,11 +239,22 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // MPI lives until main returns (a no-op without the `mpi` feature).
+    let _mpi = matches!(cli.command, Command::Run { .. }).then(mpm_cli::distributed::init);
     match dispatch(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
+            // Rank 0 reports what every rank meets; another rank reports its own failures
+            // (e.g. a piece it could not write).
+            if !mpm_cli::distributed::root() && matches!(e, CliError::Other(_)) {
+                use std::io::Write as _;
+                let rank = mpm_cli::distributed::rank();
+                let _ = writeln!(std::io::stderr(), "rank {rank}: {e}");
+            }
             mpm_cli::errln!("{e}");
-            ExitCode::from(e.exit_code() as u8)
+            let code = e.exit_code() as u8;
+            mpm_cli::distributed::end_job(code);
+            ExitCode::from(code)
         }
     }
 }

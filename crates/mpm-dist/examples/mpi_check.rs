@@ -46,7 +46,7 @@ where
         d.step().expect("the distributed run is stable");
     }
     let (ps, ids) = d.own_particles();
-    let got = bits(&ps);
+    let got = bits(ps);
     let mut differ = u64::from(d.time().to_bits() != serial.time().to_bits());
     for ((_, w), (_, g)) in want.iter().zip(&got) {
         let per = w.len() / serial.particles().len();
@@ -109,7 +109,7 @@ fn time(comm: &MpiComm, steps: u64) {
         "rank {}: {} own particles, {} halo copies, {:.0} bytes sent and {:.2} ms in \
          exchanges per step",
         comm.rank(),
-        d.solver().particles().len() - d.halo_len(),
+        d.solver().particles().len(),
         d.halo_len(),
         bytes,
         1e3 * exchange

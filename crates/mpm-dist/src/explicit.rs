@@ -63,6 +63,8 @@ pub struct DistributedExplicit<const D: usize, C: Comm> {
     ids: Vec<u64>,
     /// Number of own particles (the first ones).
     owned: usize,
+    /// Halo copies the last step used.
+    halo: usize,
     partition: Partition,
     /// Where particles sit on the grid.
     at: Locator<D>,
@@ -110,6 +112,7 @@ where
             at: Locator::new(solver.spec(), params.kernel),
             ids: slice.iter().map(|&p| p as u64).collect(),
             owned: slice.len(),
+            halo: 0,
             comm,
             solver,
             owners: OwnerMap::default(),
@@ -142,6 +145,9 @@ where
         };
         let r = self.solver.step_among(self.owned, &mut peers);
         self.traffic.bytes_sent += peers.bytes;
+        self.halo = self.ids.len() - self.owned;
+        self.solver.truncate_particles(self.owned);
+        self.ids.truncate(self.owned);
         r
     }
 
@@ -155,18 +161,19 @@ where
         self.solver.steps()
     }
 
-    /// This rank's own particles (a copy) and their global ids.
-    pub fn own_particles(&self) -> (Particles<D>, &[u64]) {
-        let own: Vec<usize> = (0..self.owned).collect();
-        (
-            self.solver.particles().select(&own),
-            &self.ids[..self.owned],
-        )
+    /// This rank's own particles and their global ids.
+    pub fn own_particles(&self) -> (&Particles<D>, &[u64]) {
+        (self.solver.particles(), &self.ids)
     }
 
-    /// Halo copies currently held (from the last exchange).
+    /// Halo copies the last step used.
     pub fn halo_len(&self) -> usize {
-        self.ids.len() - self.owned
+        self.halo
+    }
+
+    /// The transport.
+    pub fn comm(&self) -> &C {
+        &self.comm
     }
 
     /// What this rank sent and received so far.
@@ -174,7 +181,7 @@ where
         self.traffic
     }
 
-    /// The local solver (own particles, then halo copies).
+    /// The local solver (between steps it holds the own particles only).
     pub fn solver(&self) -> &ExplicitSolver<D> {
         &self.solver
     }

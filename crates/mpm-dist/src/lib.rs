@@ -4,7 +4,8 @@
 //! - [`partition`]: grid blocks along a Morton curve cut into ranges of equal particle count;
 //! - [`comm`]: the transport ([`Comm`]), with an in-process implementation over threads;
 //! - [`wire`]: what ranks send each other (particles with global ids, step outcomes);
-//! - [`explicit`]: the driver ([`DistributedExplicit`]) and why its result is exact.
+//! - [`explicit`]: the driver ([`DistributedExplicit`]) and why its result is exact; it also
+//!   implements `mpm_core::Solver` (collective diagnostics, the output field [`ID`]).
 //!
 //! With the `mpi` feature, `MpiComm` carries the same collectives over MPI (rsmpi); without
 //! it nothing links an MPI library.
@@ -14,6 +15,7 @@ pub mod explicit;
 #[cfg(feature = "mpi")]
 mod mpi_comm;
 pub mod partition;
+mod seam;
 pub mod wire;
 
 pub use comm::{run_ranks, Comm, ThreadComm};
@@ -21,3 +23,4 @@ pub use explicit::{DistributedExplicit, Traffic};
 #[cfg(feature = "mpi")]
 pub use mpi_comm::{MpiComm, MpiSession};
 pub use partition::Partition;
+pub use seam::ID;

@@ -50,6 +50,12 @@ impl MpiComm {
         ))
     }
 
+    /// Ends every process of the job with exit code `code` (`MPI_Abort`): what a rank that
+    /// fails alone must do, since the others would wait for it forever.
+    pub fn abort(&self, code: i32) -> ! {
+        Self::world().abort(code)
+    }
+
     fn world() -> SimpleCommunicator {
         SimpleCommunicator::world()
     }

@@ -32,7 +32,7 @@ where
             }
             assert_eq!(d.time().to_bits(), serial.time().to_bits());
             let (ps, ids) = d.own_particles();
-            (ps, ids.to_vec(), d.traffic().arrived)
+            (ps.clone(), ids.to_vec(), d.traffic().arrived)
         });
         let mut all = Particles::new(serial.particles().columns());
         let mut ids = Vec::new();
@@ -93,4 +93,46 @@ fn falling_cube_3d_is_bitwise_the_serial_run() {
 #[test]
 fn multigrid_contact_is_bitwise_the_serial_run() {
     assert_rank_independent(jelly_into_water, 120);
+}
+
+/// Through the solver seam: `run_until` on every rank, diagnostics summed over ranks (equal to
+/// one process's on 1 rank, within rounding on more), and the `id` output field.
+#[test]
+fn the_solver_seam_runs_and_sums_over_ranks() {
+    let make = || dam_break(WallTreatment::Nodes, VolumeUpdate::default());
+    let mut one = make();
+    one.run_until(0.05).unwrap();
+    let want = one.diagnostics();
+    for ranks in 1..=3 {
+        let got = run_ranks(ranks, 1, |comm| {
+            let mut d = DistributedExplicit::new(comm, make(), 7).unwrap();
+            let run: &mut dyn Solver<2> = &mut d;
+            run.run_until(0.05).unwrap();
+            let ids = run.output(mpm_dist::ID);
+            let n = run.particles().len();
+            (run.diagnostics(), ids, n, run.time())
+        });
+        let mut seen = Vec::new();
+        for (diag, ids, n, time) in got {
+            assert_eq!(time.to_bits(), one.time().to_bits());
+            let close = |a: Real, b: Real| (a - b).abs() <= 1e-12 * b.abs().max(1e-3);
+            assert!(close(diag.mass, want.mass), "{ranks} ranks: mass");
+            assert!(close(diag.kinetic_energy, want.kinetic_energy));
+            assert!(close(diag.elastic_energy, want.elastic_energy));
+            assert!(close(diag.potential_energy, want.potential_energy));
+            assert!(close(diag.momentum.y, want.momentum.y));
+            if ranks == 1 {
+                assert_eq!(diag, want, "one rank sums as one process");
+            }
+            match &ids[0].data {
+                mpm_core::ColumnData::U32 { values, .. } => {
+                    assert_eq!(values.len(), n);
+                    seen.extend(values.iter().copied());
+                }
+                other => panic!("ids are u32: {other:?}"),
+            }
+        }
+        seen.sort_unstable();
+        assert_eq!(seen, (0..one.particles().len() as u32).collect::<Vec<_>>());
+    }
 }

@@ -41,4 +41,4 @@ pub use snapshot::{
     Field, FieldSpec, FileKind, Header, Snapshot, Storage, CONNECTIVITY_DATASET, EXTRA_ATTRS_ATTR,
     FIELD_ORDER_ATTR, MESH_GROUP, PARTICLES_GROUP, RESERVED_ROOT_ATTRS, UNIT_ATTR,
 };
-pub use xdmf::{write_xdmf, SeriesEntry};
+pub use xdmf::{write_xdmf, write_xdmf_pieces, SeriesEntry};

@@ -58,7 +58,16 @@ impl SeriesEntry {
 /// An entry without a usable `x` field, a field whose first dimension differs from N, or a
 /// non-finite time gives [`IoError::Format`].
 pub fn write_xdmf(path: &Path, entries: &[SeriesEntry]) -> Result<(), IoError> {
-    let text = render(entries).map_err(|message| IoError::Format {
+    let steps: Vec<&[SeriesEntry]> = entries.iter().map(std::slice::from_ref).collect();
+    write_xdmf_pieces(path, &steps)
+}
+
+/// [`write_xdmf`] for a series whose snapshots are each written in pieces (one file per
+/// process of a distributed run): a step of one piece is a `Uniform` grid as there, a step of
+/// several a `Spatial` collection (with the step's `Time`) of the pieces' `Uniform` grids, so
+/// that readers show each step as one dataset. Every piece of a step must have the same time.
+pub fn write_xdmf_pieces(path: &Path, steps: &[&[SeriesEntry]]) -> Result<(), IoError> {
+    let text = render(steps).map_err(|message| IoError::Format {
         path: path.to_path_buf(),
         message,
     })?;
@@ -83,7 +92,7 @@ fn join_dims(shape: &[usize]) -> String {
         .join(" ")
 }
 
-fn render(entries: &[SeriesEntry]) -> Result<String, String> {
+fn render(steps: &[&[SeriesEntry]]) -> Result<String, String> {
     let mut out = String::new();
     // `write!` into a String cannot fail; the results are ignored below for that reason.
     out.push_str("<?xml version=\"1.0\" encoding=\"utf-8\"?>\n");
@@ -92,8 +101,34 @@ fn render(entries: &[SeriesEntry]) -> Result<String, String> {
     out.push_str(
         "    <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
     );
-    for (i, e) in entries.iter().enumerate() {
-        render_entry(&mut out, e).map_err(|m| format!("series entry {i} ({}): {m}", e.file))?;
+    for (i, pieces) in steps.iter().enumerate() {
+        let entry = |e: &SeriesEntry| format!("series entry {i} ({})", e.file);
+        match pieces {
+            [] => return Err(format!("series entry {i} has no piece")),
+            [e] => render_entry(&mut out, e).map_err(|m| format!("{}: {m}", entry(e)))?,
+            [first, ..] => {
+                if let Some(e) = pieces.iter().find(|e| e.time != first.time) {
+                    return Err(format!("{}: pieces at different times", entry(e)));
+                }
+                if !first.time.is_finite() {
+                    return Err(format!(
+                        "{}: time {} is not finite",
+                        entry(first),
+                        first.time
+                    ));
+                }
+                let _ = writeln!(
+                    out,
+                    "      <Grid Name=\"step {i}\" GridType=\"Collection\" \
+                     CollectionType=\"Spatial\">\n        <Time Value=\"{}\"/>",
+                    fmt_time(first.time)
+                );
+                for e in *pieces {
+                    render_entry(&mut out, e).map_err(|m| format!("{}: {m}", entry(e)))?;
+                }
+                out.push_str("      </Grid>\n");
+            }
+        }
     }
     out.push_str("    </Grid>\n");
     out.push_str("  </Domain>\n");

@@ -1,7 +1,7 @@
 //! The XDMF sidecar: well-formed XML with the expected grids, times, dimensions and
 //! references, written atomically.
 
-use mpm_io::{write_xdmf, FieldSpec, IoError, SeriesEntry};
+use mpm_io::{write_xdmf, write_xdmf_pieces, FieldSpec, IoError, SeriesEntry};
 use std::path::{Path, PathBuf};
 
 fn scratch(name: &str) -> PathBuf {
@@ -252,4 +252,40 @@ fn xdmf_into_a_missing_directory_is_an_error() {
     let dir = scratch("missing");
     let err = write_xdmf(&dir.join("no/run.xmf"), &[entry(0.0, 0, 1, 3)]).unwrap_err();
     assert!(matches!(err, IoError::Fs { .. }), "{err:?}");
+}
+
+/// A step written in pieces (one file per rank) is a spatial collection holding one uniform
+/// grid per piece, with the step's time; pieces at different times are refused.
+#[test]
+fn pieces_of_a_step_form_a_spatial_collection() {
+    let dir = scratch("pieces");
+    let piece = |time: f64, r: usize, n: usize| SeriesEntry {
+        file: format!("snap_000001_p{r:04}.h5"),
+        ..entry(time, 1, n, 3)
+    };
+    let first = [entry(0.0, 0, 10, 3)];
+    let second = [piece(0.5, 0, 4), piece(0.5, 1, 6)];
+    let path = dir.join("run.xmf");
+    write_xdmf_pieces(&path, &[&first, &second]).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let temporal = child(child(doc.root_element(), "Domain"), "Grid");
+    let steps: Vec<_> = temporal.children().filter(|c| c.is_element()).collect();
+    assert_eq!(steps.len(), 2);
+    assert_eq!(steps[0].attribute("GridType"), Some("Uniform"));
+    assert_eq!(steps[1].attribute("CollectionType"), Some("Spatial"));
+    assert_eq!(child(steps[1], "Time").attribute("Value"), Some("0.5"));
+    let grids: Vec<_> = steps[1]
+        .children()
+        .filter(|c| c.has_tag_name("Grid"))
+        .collect();
+    assert_eq!(grids.len(), 2);
+    let (dims, _, _, _, file) = data_item(child(grids[1], "Geometry"));
+    assert_eq!(dims, "6 3");
+    assert_eq!(file, "snap_000001_p0001.h5:/particles/x");
+    let skewed = [piece(0.5, 0, 4), piece(0.6, 1, 6)];
+    assert!(matches!(
+        write_xdmf_pieces(&dir.join("bad.xmf"), &[&skewed]),
+        Err(IoError::Format { .. })
+    ));
 }

@@ -114,6 +114,7 @@ pub fn run(opts: &RunOptions) -> Result<(), CliError> {
     let output = &mut scene.scene.output;
     output.precision = opts.precision.unwrap_or(output.precision);
     output.compression = opts.compression.unwrap_or(output.compression);
+    refuse_on_ranks(&scene, opts)?;
     let built = build(&scene)?;
     let (out, from_scene) = match &opts.out {
         Some(o) => (o.clone(), false),
@@ -126,6 +127,37 @@ pub fn run(opts: &RunOptions) -> Result<(), CliError> {
         AnyBuilt::D2(b) => on_pool(|| Runner::new(*b, &scene, &out, opts)?.run()),
         AnyBuilt::D3(b) => on_pool(|| Runner::new(*b, &scene, &out, opts)?.run()),
     }
+}
+
+/// On several ranks, what does not run distributed yet is refused before anything is built:
+/// another solver than the explicit one, checkpoints and resuming.
+fn refuse_on_ranks(scene: &LoadedScene, opts: &RunOptions) -> Result<(), CliError> {
+    let ranks = crate::distributed::ranks();
+    if ranks == 1 {
+        return Ok(());
+    }
+    let why = |what: &str| {
+        format!("{what} on one process only, not on {ranks} ranks yet (see docs/distributed.md)")
+    };
+    let sc = &scene.scene;
+    if sc.simulation.solver != crate::solvers::SolverKind::Explicit {
+        let name = sc.simulation.solver.name();
+        return Err(scene
+            .error("simulation.solver", why(&format!("solver \"{name}\" runs")))
+            .into());
+    }
+    if sc.checkpoint.is_some() {
+        return Err(scene
+            .error("checkpoint", why("checkpoints are written"))
+            .into());
+    }
+    if opts.resume.is_some() {
+        return Err(CliError::BadInput(format!(
+            "error: --resume: {}",
+            why("runs resume")
+        )));
+    }
+    Ok(())
 }
 
 /// The most worker threads `--threads` accepts: 8 per core, at least 64.
@@ -148,7 +180,10 @@ fn prepare_output(scene: &LoadedScene, out: &Path, from_scene: bool) -> Result<(
         }
     };
     std::fs::create_dir_all(out).map_err(|e| fail(e.to_string()))?;
-    let probe = out.join(".mpm-cli-write-test");
+    let probe = out.join(format!(
+        ".mpm-cli-write-test-{}",
+        crate::distributed::rank()
+    ));
     std::fs::write(&probe, b"ok").map_err(|e| fail(e.to_string()))?;
     std::fs::remove_file(&probe).map_err(|e| fail(e.to_string()))?;
     Ok(())
@@ -195,7 +230,8 @@ struct Runner<'a, const D: usize> {
     warnings: Vec<String>,
     /// Index of the next snapshot.
     frame: u64,
-    series: Vec<SeriesEntry>,
+    /// The snapshots written, each as its pieces (one per rank; one on one process).
+    series: Vec<Vec<SeriesEntry>>,
     snapshot_schedule: Schedule,
     checkpoint_schedule: Option<(Schedule, CheckpointDef)>,
     /// Diagnostics at time 0 (from the checkpoint when resuming).
@@ -329,8 +365,14 @@ where
         let wall = Instant::now();
         let n = self.solver.particles().len();
         if !self.quiet {
+            let ranks = crate::distributed::ranks();
+            let n = if ranks > 1 {
+                format!("{n} particles on rank 0 of {ranks} ranks")
+            } else {
+                format!("{n} particles")
+            };
             crate::errln!(
-                "{}: {}D, {n} particles, grid {:?} nodes (dx = {} m), {} threads, output in {}",
+                "{}: {}D, {n}, grid {:?} nodes (dx = {} m), {} threads, output in {}",
                 self.scene.path.display(),
                 D,
                 self.solver.spec().size,
@@ -409,7 +451,11 @@ where
         let summary_path = self.out.join("summary.json");
         // Atomic, so that a second signal or a kill while it is written cannot leave a
         // truncated summary.json.
-        let write_summary = write_atomically(&summary_path, (text + "\n").as_bytes());
+        let write_summary = if crate::distributed::root() {
+            write_atomically(&summary_path, (text + "\n").as_bytes())
+        } else {
+            Ok(())
+        };
         if let Some(e) = failure {
             crate::errln!(
                 "run stopped after {} steps; outputs written so far are kept in {}",
@@ -419,6 +465,18 @@ where
             return Err(e);
         }
         write_summary?;
+        if let (Some(signal), true) = (interrupted, crate::distributed::ranks() > 1) {
+            return Err(CliError::Interrupted {
+                signal,
+                message: format!(
+                    "interrupted by {} after step {} (t = {:.6e} s): wrote a snapshot and \
+                     summary.json; runs on several ranks write no checkpoint yet",
+                    signal_name(signal),
+                    self.solver.steps(),
+                    self.solver.time()
+                ),
+            });
+        }
         if let Some(signal) = interrupted {
             let ckpt = self.out.join(checkpoint_name(self.solver.steps()));
             return Err(CliError::Interrupted {

@@ -6,7 +6,8 @@ use crate::error::CliError;
 use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, UNITS};
 use mpm_core::{Dim, DimOps};
 use mpm_io::{
-    read_file, read_layout, write_file, write_file_with, write_xdmf, FileKind, Header, SeriesEntry,
+    read_file, read_layout, write_file, write_file_with, write_xdmf_pieces, FileKind, Header,
+    SeriesEntry,
 };
 use std::path::Path;
 use std::time::Instant;
@@ -192,12 +193,12 @@ where
                     if h.step == ck.header.step {
                         self.last_snapshot_step = Some(h.step);
                     }
-                    self.series.push(SeriesEntry {
+                    self.series.push(vec![SeriesEntry {
                         time: h.time,
                         file: snapshot_name(n),
                         dim: D as u32,
                         fields,
-                    })
+                    }])
                 }
                 Err(e) => self.warn(format!("earlier snapshot not kept in run.xmf: {e}")),
             }
@@ -230,7 +231,11 @@ where
     /// Writes the next snapshot and rewrites `run.xmf`.
     pub(super) fn write_snapshot(&mut self) -> Result<(), CliError> {
         let t = Instant::now();
-        let columns = snapshot_columns(self.solver.as_ref(), &self.scene.scene.output.fields);
+        let mut columns = snapshot_columns(self.solver.as_ref(), &self.scene.scene.output.fields);
+        if crate::distributed::ranks() > 1 {
+            // The global ids, to put the ranks' pieces back together.
+            columns.extend(self.solver.output(crate::distributed::ID));
+        }
         if let Some((name, p, v)) = first_non_finite(&columns) {
             return Err(CliError::Instability(format!(
                 "error: non-finite {name} = {v} at particle {p} at step {} (t = {:.6e} s); \
@@ -239,20 +244,24 @@ where
                 self.solver.time()
             )));
         }
-        let name = snapshot_name(self.frame);
+        let name = crate::distributed::snapshot_piece(self.frame, crate::distributed::rank());
         let header = self.header(
             FileKind::Snapshot,
             vec![("frame".to_string(), self.frame as f64)],
         );
         let storage = self.scene.scene.output.storage();
         write_file_with(&self.out.join(&name), &header, &columns, storage)?;
-        self.series.push(SeriesEntry {
+        let mine = SeriesEntry {
             time: self.solver.time(),
             file: name,
             dim: D as u32,
             fields: columns.iter().map(|f| storage.spec(f)).collect(),
-        });
-        write_xdmf(&self.out.join("run.xmf"), &self.series)?;
+        };
+        self.series.push(self.pieces(mine)?);
+        if crate::distributed::root() {
+            let steps: Vec<&[SeriesEntry]> = self.series.iter().map(Vec::as_slice).collect();
+            write_xdmf_pieces(&self.out.join("run.xmf"), &steps)?;
+        }
         for (stats, m) in self.monitors.iter_mut().zip(self.solver.monitors()) {
             stats.last = m.value;
             stats.min = stats.min.min(m.value);
@@ -263,6 +272,32 @@ where
         self.last_good = (self.solver.steps(), self.solver.diagnostics());
         self.io_seconds += t.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// The pieces of the snapshot this rank has just written as `mine`: on several ranks,
+    /// after every rank has written its piece, rank 0 reads the others' layouts from the
+    /// output directory (the other ranks keep their own piece only).
+    fn pieces(&self, mine: SeriesEntry) -> Result<Vec<SeriesEntry>, CliError> {
+        let ranks = crate::distributed::ranks();
+        if ranks == 1 {
+            return Ok(vec![mine]);
+        }
+        crate::distributed::barrier();
+        if !crate::distributed::root() {
+            return Ok(vec![mine]);
+        }
+        let mut pieces = vec![mine];
+        for r in 1..ranks {
+            let file = crate::distributed::snapshot_piece(self.frame, r);
+            let (_, fields) = read_layout(&self.out.join(&file))?;
+            pieces.push(SeriesEntry {
+                time: pieces[0].time,
+                file,
+                dim: D as u32,
+                fields,
+            });
+        }
+        Ok(pieces)
     }
 
     /// Writes a checkpoint of the full state and deletes the oldest beyond `keep`.
@@ -327,7 +362,8 @@ where
     pub(super) fn write_interrupt_outputs(&mut self) -> Result<(), CliError> {
         let keep = self.checkpoint_schedule.map_or(1, |(_, c)| c.keep);
         let name = checkpoint_name(self.solver.steps());
-        if self.checkpoints_written.last() != Some(&name) {
+        // Runs on several ranks write no checkpoints yet (refused at start when asked for).
+        if crate::distributed::ranks() == 1 && self.checkpoints_written.last() != Some(&name) {
             self.write_checkpoint(keep)?;
         }
         if self.last_snapshot_step != Some(self.solver.steps()) {

@@ -13,13 +13,16 @@ where
     pub(super) fn print_report(&self, wall_s: f64) {
         let table = self.solver.stage_times();
         let stage_total: f64 = table.iter().map(|r| r.seconds).sum();
+        let particles: usize = crate::distributed::gather_counts(self.solver.particles().len())
+            .iter()
+            .sum();
         let mut out = String::new();
         out.push_str(&format!(
             "done: {} steps ({} this run) to t = {:.6} s, {} particles, {} snapshots, wall {:.2} s\n",
             self.solver.steps(),
             self.steps_this_run,
             self.solver.time(),
-            self.solver.particles().len(),
+            particles,
             self.frame,
             wall_s
         ));

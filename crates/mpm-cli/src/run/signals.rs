@@ -49,7 +49,12 @@ where
 {
     /// The signal that asked the run to stop, if one did.
     pub(super) fn stop_signal(&self) -> Option<i32> {
-        let s = self.stop.as_ref()?.load(Ordering::SeqCst);
-        (s != 0).then_some(s as i32)
+        let s = self.stop.as_ref().map_or(0, |s| s.load(Ordering::SeqCst));
+        // On several ranks every rank stops after the same step: a signal any rank got.
+        if crate::distributed::any(s != 0) {
+            Some(if s != 0 { s as i32 } else { 15 })
+        } else {
+            None
+        }
     }
 }

@@ -57,13 +57,15 @@ where
         interrupted: Option<i32>,
     ) -> serde_json::Value {
         let (status, error) = self.status(failure, interrupted);
+        let per_rank = crate::distributed::gather_counts(self.solver.particles().len());
         json!({
             "scene": self.scene.path.display().to_string(),
             "status": status,
             "error": error,
             "dim": D,
             "solver": self.solver.name(),
-            "particles": self.solver.particles().len(),
+            "particles": per_rank.iter().sum::<usize>(),
+            "particles_per_rank": per_rank,
             "steps": self.solver.steps(),
             "steps_this_run": self.steps_this_run,
             "signal": interrupted.map(signal_name),

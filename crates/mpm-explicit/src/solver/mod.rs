@@ -270,6 +270,12 @@ where
         Ok(())
     }
 
+    /// Keeps the first `n` particles (a distributed driver drops its halo copies after a
+    /// step, also after a failed one; a subset needs no new checks).
+    pub fn truncate_particles(&mut self, n: usize) {
+        self.particles.truncate(n);
+    }
+
     /// Moves the particles out, leaving none (for editing them in place before
     /// [`Self::replace_particles`] hands them back).
     pub fn take_particles(&mut self) -> Particles<D> {

@@ -256,8 +256,10 @@ where
         particles,
     )
     .map_err(|e| setup_error(scene, &bodies, e, &error_keys(own)))?;
+    let solver = crate::distributed::explicit(solver)
+        .map_err(|e| setup_error(scene, &bodies, e, &error_keys(own)))?;
     Ok(Built {
-        solver: Box::new(solver),
+        solver,
         bodies,
         warnings,
         notes: phase_note(sc.phase_count(), own.couplings.len()),
