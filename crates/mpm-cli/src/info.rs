@@ -2,21 +2,24 @@
 //! units and value ranges. `mpm-cli info DIR`: an overview of a run's output directory.
 
 use crate::error::CliError;
+use crate::files::{hint, Checked};
 use crate::input::{read_text, MAX_SUMMARY_BYTES};
 use crate::run::numbered_files;
-use mpm_io::{read_file, read_header, read_layout, Data, FileKind};
+use mpm_io::{Data, FileKind, Verify};
 use std::fmt::Write as _;
 use std::path::Path;
 
 /// The report printed by `mpm-cli info` (with the stored scene text when `scene` is set): of a
 /// file, or of a run directory.
-pub fn info(path: &Path, scene: bool) -> Result<String, CliError> {
+pub fn info(path: &Path, scene: bool, trust: Verify) -> Result<String, CliError> {
     if path.is_dir() {
-        return run_dir(path);
+        return run_dir(path, trust);
     }
-    let s = read_file(path).map_err(|e| CliError::BadInput(format!("error: {e}")))?;
+    let bad = |e: mpm_io::IoError| CliError::BadInput(format!("error: {e}{}", hint(&e)));
+    let file = Checked::open(path, trust).map_err(bad)?;
+    let s = file.read_file().map_err(bad)?;
     // The stored number types (read_file widens f32 to f64).
-    let (_, layout) = read_layout(path).map_err(|e| CliError::BadInput(format!("error: {e}")))?;
+    let (_, layout) = file.read_layout().map_err(bad)?;
     let h = &s.header;
     let mut o = String::new();
     let kind = match h.kind {
@@ -101,7 +104,7 @@ fn read_summary(path: &Path) -> Result<Option<serde_json::Value>, CliError> {
 
 /// An overview of a run directory: its snapshots (count, first and last time and step), its
 /// checkpoints, and the status of `summary.json`.
-fn run_dir(dir: &Path) -> Result<String, CliError> {
+fn run_dir(dir: &Path, trust: Verify) -> Result<String, CliError> {
     let snaps = numbered_files(dir, "snap_");
     let ckpts = numbered_files(dir, "ckpt_");
     if snaps.is_empty() && ckpts.is_empty() && !dir.join("summary.json").exists() {
@@ -113,7 +116,7 @@ fn run_dir(dir: &Path) -> Result<String, CliError> {
     }
     let mut o = String::new();
     let _ = writeln!(o, "run directory: {}", dir.display());
-    let describe = |p: &Path| match read_header(p) {
+    let describe = |p: &Path| match Checked::open(p, trust).and_then(|f| f.read_header()) {
         Ok(h) => format!("t = {} s, step {}", h.time, h.step),
         Err(e) => format!("unreadable: {e}"),
     };

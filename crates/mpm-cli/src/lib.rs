@@ -6,6 +6,7 @@ pub mod build;
 pub mod check;
 pub mod distributed;
 pub mod error;
+pub mod files;
 pub mod font;
 pub mod info;
 pub mod input;

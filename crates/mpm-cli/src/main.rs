@@ -30,6 +30,13 @@ stay complete.";
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Also read .h5 files that have no checksum block (written or rewritten by another HDF5
+    /// tool, or cut at the front). Unsafe: damage to their values goes unnoticed. Each such file
+    /// is first read by a child process, so a crash or hang of the HDF5 library on a damaged
+    /// file is reported as an error (exit code 2); MPM_UNCHECKED_TIMEOUT sets how many seconds
+    /// that child may take (default 10, plus 1 per 20 MB).
+    #[arg(long, global = true)]
+    unchecked: bool,
 }
 
 #[derive(Subcommand)]
@@ -116,6 +123,11 @@ enum Command {
     /// triangle mesh with splashsurf, written to DIR/surface/surface_NNNNNN.ply (binary PLY,
     /// opened by Blender, ParaView, MeshLab). Prints each file with its vertex and triangle
     /// counts and enclosed volume.
+    ///
+    /// Sizes are checked before anything is allocated: the radius, the kernel's reach and the
+    /// cells no larger than the scene's domain, at most 2e9 marching-cubes cells and 2048
+    /// neighbour candidates per particle, --iso below 2. An empty surface is an error, and a
+    /// command that fails leaves no files behind.
     Surface {
         /// Output directory of a run.
         dir: PathBuf,
@@ -149,9 +161,23 @@ enum Command {
         #[arg(long, default_value_t = 0.6, allow_negative_numbers = true)]
         iso: f64,
     },
+    /// Reads FILE once without verifying it and writes what it read to COPY with checksums,
+    /// for a parent `mpm-cli --unchecked` (which survives this process crashing).
+    #[command(hide = true, name = "probe")]
+    Probe {
+        /// The .h5 file.
+        file: PathBuf,
+        /// The checksummed copy to write.
+        copy: PathBuf,
+    },
 }
 
 fn dispatch(cli: Cli) -> Result<(), CliError> {
+    let trust = if cli.unchecked {
+        mpm_io::Verify::Unchecked
+    } else {
+        mpm_io::Verify::Required
+    };
     match cli.command {
         Command::Run {
             scene,
@@ -170,13 +196,14 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             compression,
             quiet,
             stop: Some(mpm_cli::run::stop_on_signals()?),
+            trust,
         }),
         Command::Check { scene } => {
             mpm_cli::out!("{}", mpm_cli::check::check(&scene)?);
             Ok(())
         }
         Command::Info { file, scene } => {
-            mpm_cli::out!("{}", mpm_cli::info::info(&file, scene)?);
+            mpm_cli::out!("{}", mpm_cli::info::info(&file, scene, trust)?);
             Ok(())
         }
         Command::Render {
@@ -198,6 +225,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                 only,
                 range: range.map(|r| (r[0], r[1])),
                 view,
+                trust,
             })?;
             for f in files {
                 mpm_cli::outln!("{}", f.display());
@@ -221,6 +249,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                 smoothing_length,
                 cube_size,
                 iso,
+                trust,
             })?;
             for f in files {
                 mpm_cli::outln!(
@@ -234,6 +263,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             }
             Ok(())
         }
+        Command::Probe { file, copy } => mpm_cli::files::probe(&file, &copy),
     }
 }
 

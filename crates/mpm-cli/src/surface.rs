@@ -12,9 +12,10 @@
 //! number of threads.
 
 use crate::error::CliError;
+use crate::files::{hint, read_file};
 use crate::render::{particle_spacing, select_snapshots};
 use crate::scene::{self, ModelDef};
-use mpm_io::{read_file, Data};
+use mpm_io::Data;
 use rayon::prelude::*;
 use splashsurf_lib::nalgebra::Vector3;
 use splashsurf_lib::{reconstruct_surface, Parameters, SpatialDecomposition};
@@ -37,6 +38,9 @@ pub struct SurfaceOptions {
     pub cube_size: f64,
     /// Iso-surface level as a fraction of the rest density.
     pub iso: f64,
+    /// Whether `.h5` files without a checksum block are read (`--unchecked`; unsafe, see
+    /// [`crate::files`]).
+    pub trust: mpm_io::Verify,
 }
 
 impl Default for SurfaceOptions {
@@ -49,6 +53,7 @@ impl Default for SurfaceOptions {
             smoothing_length: 2.0,
             cube_size: 0.5,
             iso: 0.6,
+            trust: mpm_io::Verify::Required,
         }
     }
 }
@@ -87,41 +92,100 @@ pub fn surface(opts: &SurfaceOptions) -> Result<Vec<SurfaceFile>, CliError> {
             return Err(bad(format!("{name} {v}: must be a positive number")));
         }
     }
+    if opts.iso >= MAX_ISO {
+        return Err(bad(format!(
+            "--iso {}: must be below {MAX_ISO} (a fraction of the rest density; a fluid is \
+             never compressed that far)",
+            opts.iso
+        )));
+    }
     let chosen = select_snapshots(&opts.dir, opts.frame, opts.frame.is_none()).map_err(bad)?;
     let out_dir = opts.dir.join("surface");
+    let created = !out_dir.exists();
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| CliError::Other(format!("error: {}: {e}", out_dir.display())))?;
-    chosen
+    let written: Vec<Result<SurfaceFile, CliError>> = chosen
         .par_iter()
         .map(|(frame, path)| {
-            let (positions, radius, time) = fluid_particles(path, opts).map_err(bad)?;
-            let mesh = reconstruct(&positions, radius, opts).map_err(bad)?;
+            let f = fluid_particles(path, opts).map_err(bad)?;
+            if f.positions.is_empty() {
+                return Err(bad(format!(
+                    "frame {frame} has no particles of the chosen materials"
+                )));
+            }
+            let mesh = reconstruct(&f, opts).map_err(bad)?;
+            if mesh.1.is_empty() {
+                return Err(bad(format!(
+                    "frame {frame}: the surface is empty: no region of the {} particles \
+                     reaches --iso {} of the rest density (give a smaller --iso or a larger \
+                     --smoothing-length)",
+                    f.positions.len(),
+                    opts.iso
+                )));
+            }
             let volume = enclosed_volume(&mesh.0, &mesh.1);
             let ply = out_dir.join(format!("surface_{frame:06}.ply"));
-            let comment =
-                format!("mpm-cli surface: frame {frame}, t = {time} s, radius {radius} m");
+            let comment = format!(
+                "mpm-cli surface: frame {frame}, t = {} s, radius {} m",
+                f.time, f.radius
+            );
             std::fs::write(&ply, ply_bytes(&mesh.0, &mesh.1, &comment)).map_err(|e| {
                 CliError::Other(format!("error: cannot write {}: {e}", ply.display()))
             })?;
             Ok(SurfaceFile {
                 path: ply,
                 frame: *frame,
-                particles: positions.len(),
+                particles: f.positions.len(),
                 vertices: mesh.0.len(),
                 triangles: mesh.1.len(),
                 volume,
             })
         })
-        .collect()
+        .collect();
+    if let Some(i) = written.iter().position(Result::is_err) {
+        // A failed command leaves nothing behind: the meshes of this call are removed, and
+        // the folder if this call made it.
+        for f in written.iter().flatten() {
+            let _ = std::fs::remove_file(&f.path);
+        }
+        if created {
+            let _ = std::fs::remove_dir(&out_dir);
+        }
+        return Err(written
+            .into_iter()
+            .nth(i)
+            .and_then(Result::err)
+            .expect("an error"));
+    }
+    Ok(written.into_iter().flatten().collect())
 }
 
-/// The positions of the chosen materials' particles in snapshot `path`, the particle radius
-/// (m) and the snapshot's time (s).
-fn fluid_particles(
-    path: &Path,
-    opts: &SurfaceOptions,
-) -> Result<(Vec<Vector3<f64>>, f64, f64), String> {
-    let s = read_file(path).map_err(|e| e.to_string())?;
+/// `--iso` must stay below this fraction of the rest density.
+const MAX_ISO: f64 = 2.0;
+
+/// Largest mean number of neighbour candidates per particle (particles in the 3³ kernel-sized
+/// cells around it): about 6.4 times the particles within the kernel's reach, whose lists
+/// splashsurf keeps. The defaults give about 216 (8 particles per cell of the kernel's reach),
+/// so a radius or smoothing length up to twice the default passes; the limit refuses one that
+/// makes every particle a neighbour of every other (memory quadratic in the particle count).
+const MAX_NEIGHBOURS: f64 = 2048.0;
+
+/// The particles of one snapshot that form the surface.
+struct FluidFrame {
+    /// Positions (m).
+    positions: Vec<Vector3<f64>>,
+    /// Particle radius (m).
+    radius: f64,
+    /// Time of the snapshot (s).
+    time: f64,
+    /// Largest edge of the scene's grid box (m).
+    domain: f64,
+}
+
+/// The chosen materials' particles in snapshot `path`, with the particle radius, the time and
+/// the size of the scene's domain.
+fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, String> {
+    let s = read_file(path, opts.trust).map_err(|e| format!("{e}{}", hint(&e)))?;
     if s.header.dim != 3 {
         return Err(format!(
             "{}: surfaces need 3D snapshots; this run is {}D",
@@ -186,28 +250,47 @@ fn fluid_particles(
             })?
         }
     };
-    Ok((positions, radius, s.header.time))
+    let grid = &stored.scene.grid;
+    let domain = (0..3)
+        .map(|a| grid.max[a] - grid.min[a])
+        .fold(0.0, f64::max);
+    Ok(FluidFrame {
+        positions,
+        radius,
+        time: s.header.time,
+        domain,
+    })
 }
 
 /// A triangle mesh: vertices (m) and triangles (indices, counter-clockwise seen from outside).
 type Mesh = (Vec<[f64; 3]>, Vec<[usize; 3]>);
 
-/// The surface of `positions` with particle radius `radius` (m).
-fn reconstruct(
-    positions: &[Vector3<f64>],
-    radius: f64,
-    opts: &SurfaceOptions,
-) -> Result<Mesh, String> {
-    if positions.is_empty() {
-        return Ok((Vec::new(), Vec::new()));
-    }
+/// The surface of a frame's particles.
+fn reconstruct(f: &FluidFrame, opts: &SurfaceOptions) -> Result<Mesh, String> {
+    let (positions, radius) = (&f.positions, f.radius);
     let cube = opts.cube_size * radius;
+    let support = 2.0 * opts.smoothing_length * radius;
+    for (what, len) in [
+        ("the particle radius (--radius)", radius),
+        (
+            "the kernel's reach (--radius × 2 --smoothing-length)",
+            support,
+        ),
+        ("the marching-cubes cell (--radius × --cube-size)", cube),
+    ] {
+        if len > f.domain {
+            return Err(format!(
+                "{what} is {len:.3e} m, larger than the scene's domain ({:.3e} m)",
+                f.domain
+            ));
+        }
+    }
     let (mut lo, mut hi) = (positions[0], positions[0]);
     for p in positions {
         lo = lo.inf(p);
         hi = hi.sup(p);
     }
-    let margin = 2.0 * opts.smoothing_length * radius + cube;
+    let margin = support + cube;
     let cells: f64 = (0..3)
         .map(|a| (hi[a] - lo[a] + 2.0 * margin) / cube)
         .product();
@@ -215,6 +298,14 @@ fn reconstruct(
         return Err(format!(
             "the marching-cubes grid would have {cells:.2e} cells (at most {MAX_CELLS:.0e}); \
              give a larger --cube-size or --radius"
+        ));
+    }
+    let neighbours = neighbour_candidates(positions, lo, support);
+    if neighbours > MAX_NEIGHBOURS {
+        return Err(format!(
+            "with a kernel reach of {support:.3e} m each particle would have about \
+             {neighbours:.0} neighbour candidates (at most {MAX_NEIGHBOURS}); give a smaller \
+             --radius or --smoothing-length"
         ));
     }
     let mut params = Parameters::new(radius, 2.0 * opts.smoothing_length * radius, cube);
@@ -233,6 +324,25 @@ fn reconstruct(
         }
     }
     Ok((vertices, triangles))
+}
+
+/// The mean number of particles in the 3³ cells of edge `support` (m) around each particle,
+/// cells counted from `lo`: an upper bound on the neighbours within `support`, found in time
+/// linear in the particle count.
+fn neighbour_candidates(positions: &[Vector3<f64>], lo: Vector3<f64>, support: f64) -> f64 {
+    let cell = |p: &Vector3<f64>| ((p - lo) / support).map(|c| c.floor() as i64);
+    let mut counts = std::collections::HashMap::<Vector3<i64>, u64>::new();
+    for p in positions {
+        *counts.entry(cell(p)).or_default() += 1;
+    }
+    let mut pairs = 0u64;
+    for (c, n) in &counts {
+        for o in 0..27i64 {
+            let d = Vector3::new(o % 3 - 1, o / 3 % 3 - 1, o / 9 - 1);
+            pairs += n * counts.get(&(c + d)).copied().unwrap_or(0);
+        }
+    }
+    pairs as f64 / positions.len() as f64
 }
 
 /// The volume enclosed by a closed, consistently oriented triangle mesh (m³): the sum over

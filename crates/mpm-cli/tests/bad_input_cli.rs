@@ -228,3 +228,54 @@ fn devices_pipes_and_huge_files_are_not_read() {
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     }
 }
+
+/// `WATER_2D` with `n` more materials and `n` more bodies (one cell of 2×2 particles each).
+fn with_many(n: usize) -> String {
+    let mut t = WATER_2D.to_string();
+    for i in 0..n {
+        t.push_str(&format!(
+            "\n[[materials]]\nname = \"m{i}\"\npreset = \"water\"\n\n[[bodies]]\nname = \"b{i}\"\n\
+             material = \"m{i}\"\nshape = \"box\"\nmin = [0.3, 0.3]\nmax = [0.33125, 0.33125]\n"
+        ));
+    }
+    t
+}
+
+#[test]
+fn material_and_body_counts_are_capped() {
+    use mpm_cli::scene::bodies::MAX_BODIES;
+    use mpm_cli::scene::materials::MAX_MATERIALS;
+    let d = tmpdir("many");
+    // At the cap the scene is checked (each body and material name looked up once: linear).
+    let at_cap = with_many(MAX_MATERIALS - 1);
+    let p = write(&d, "at_cap.toml", &at_cap);
+    let o = cli(&["check", &p.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains(&format!("name = \"m{}\"", MAX_MATERIALS - 2)));
+    // One more material: exit 2 at `materials`, with the limit.
+    let over = with_many(MAX_MATERIALS);
+    expect_bad(&d, "materials.toml", &over, "check", "materials", None);
+    let err = check_stderr(&d, "materials.toml", &over);
+    assert!(err.contains(&format!("at most {MAX_MATERIALS}")), "{err}");
+    // Every body then names a material that is not there: the first problems are reported.
+    let shown = mpm_cli::scene::MAX_PROBLEMS;
+    assert!(
+        err.contains(&format!(
+            "{} more problems not shown (at most {shown} are reported)",
+            MAX_MATERIALS + 2 - shown
+        )),
+        "{err}"
+    );
+    // More bodies than the cap, all of one material.
+    let mut bodies = WATER_2D.to_string();
+    for _ in 0..MAX_BODIES {
+        bodies.push_str("\n[[bodies]]\nmaterial = \"water\"\nshape = \"box\"\nmin = [0.3, 0.3]\nmax = [0.31, 0.31]\n");
+    }
+    expect_bad(&d, "bodies.toml", &bodies, "check", "bodies", None);
+    // An unknown material among many lists only the first names.
+    let unknown = with_many(100).replace("material = \"m99\"", "material = \"nope\"");
+    let err = check_stderr(&d, "unknown.toml", &unknown);
+    assert!(err.contains("unknown material \"nope\""), "{err}");
+    assert!(err.contains("and 81 more"), "{err}");
+    assert!(!err.contains("\"m50\""), "{err}");
+}

@@ -6,55 +6,12 @@
 mod common;
 
 use common::*;
-use mpm_cli::run::numbered_files;
 use mpm_io::{read_file, Data};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// How long one command may take before it counts as a hang (an undamaged resume takes well
 /// under a second).
 const TIMEOUT: Duration = Duration::from_secs(20);
-
-/// How a child process ended.
-enum Outcome {
-    /// Exit code.
-    Code(i32),
-    /// Killed by a signal (a crash).
-    Signal,
-    /// Still running at [`TIMEOUT`]; it was killed.
-    Hang,
-}
-
-/// Runs the binary with `args` (stdout and stderr to `log_dir/stdout`, `log_dir/stderr`) and
-/// returns how it ended and its stdout and stderr.
-fn run_with_timeout(args: &[&str], log_dir: &Path) -> (Outcome, String, String) {
-    let (out_path, err_path) = (log_dir.join("stdout"), log_dir.join("stderr"));
-    let mut child = Command::new(bin())
-        .args(args)
-        .stdout(Stdio::from(
-            std::fs::File::create(&out_path).expect("stdout"),
-        ))
-        .stderr(Stdio::from(
-            std::fs::File::create(&err_path).expect("stderr"),
-        ))
-        .spawn()
-        .expect("spawn mpm-cli");
-    let start = Instant::now();
-    let outcome = loop {
-        if let Some(status) = child.try_wait().expect("wait") {
-            break status.code().map_or(Outcome::Signal, Outcome::Code);
-        }
-        if start.elapsed() > TIMEOUT {
-            let _ = child.kill();
-            let _ = child.wait();
-            break Outcome::Hang;
-        }
-        std::thread::sleep(Duration::from_millis(2));
-    };
-    let read = |p: &PathBuf| std::fs::read_to_string(p).unwrap_or_default();
-    (outcome, read(&out_path), read(&err_path))
-}
 
 /// The byte range of each dataset's values in `bytes`, for the datasets whose values occur
 /// exactly once in the file (found by their little-endian bytes).
@@ -73,15 +30,6 @@ fn payloads(bytes: &[u8], ck: &mpm_io::Snapshot) -> Vec<(String, std::ops::Range
         }
     }
     out
-}
-
-/// Every file of a run directory (snapshots, checkpoints), by name, with its bytes.
-fn outputs(dir: &Path) -> Vec<(u64, Vec<u8>)> {
-    ["snap_", "ckpt_"]
-        .iter()
-        .flat_map(|p| numbered_files(dir, p))
-        .map(|(n, p)| (n, std::fs::read(p).expect("output")))
-        .collect()
 }
 
 #[test]
@@ -121,11 +69,11 @@ fn damaged_checkpoints_never_crash_or_hang_and_are_detected() {
         bad_s.as_str(),
     ];
     std::fs::write(&bad, &good).expect("write");
-    let (o, _, e) = run_with_timeout(&resume_args, &d);
+    let (o, _, e) = run_with_timeout(&resume_args, &[], &d, TIMEOUT);
     assert!(matches!(o, Outcome::Code(0)), "undamaged resume: {e}");
     let reference_outputs = outputs(&resumed);
     assert!(reference_outputs.len() >= 2, "the resume wrote its outputs");
-    let (o, reference_info, e) = run_with_timeout(&["info", &bad_s], &d);
+    let (o, reference_info, e) = run_with_timeout(&["info", &bad_s], &[], &d, TIMEOUT);
     assert!(matches!(o, Outcome::Code(0)), "undamaged info: {e}");
 
     let mut rng = Rng(0xdead_c0de);
@@ -159,7 +107,7 @@ fn damaged_checkpoints_never_crash_or_hang_and_are_detected() {
             ("resume", &resume_args[..]),
         ] {
             let what = format!("case {case} ({cmd}, {width} bytes at {at})");
-            let (outcome, stdout, stderr) = run_with_timeout(args, &d);
+            let (outcome, stdout, stderr) = run_with_timeout(args, &[], &d, TIMEOUT);
             match outcome {
                 Outcome::Signal => {
                     crashes += 1;

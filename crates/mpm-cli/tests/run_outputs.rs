@@ -445,3 +445,35 @@ fn an_explicit_scene_beyond_the_dense_grid_limit_runs_on_the_sparse_grid() {
     let mean_vy = v.iter().skip(1).step_by(2).sum::<f64>() / (v.len() / 2) as f64;
     assert!(mean_vy < -0.5 * 9.81 * big.header.time, "{mean_vy} m/s");
 }
+
+#[test]
+fn a_summary_that_cannot_be_written_is_reported() {
+    let d = tmpdir("summary-blocked");
+    // A non-empty directory where summary.json belongs: it cannot be replaced.
+    let block = |out: &Path| {
+        std::fs::create_dir_all(out.join("summary.json/keep")).expect("blocker");
+    };
+    let run = |name: &str, text: &str| {
+        let p = write(&d, name, text);
+        let out = d.join(format!("{name}.out"));
+        block(&out);
+        cli(&[
+            "run",
+            &p.to_string_lossy(),
+            "--out",
+            &out.to_string_lossy(),
+            "--quiet",
+        ])
+    };
+    // A run that otherwise succeeds exits 1 naming the file.
+    let o = run("ok.toml", WATER_2D);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("summary.json"), "{err}");
+    // A failed run keeps its own exit code and says that the summary is missing too.
+    let unstable = WATER_2D.replace("steps = 60", "steps = 200\ndt = 0.02");
+    let o = run("unstable.toml", &unstable);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(err.contains("summary.json was not written"), "{err}");
+}

@@ -252,12 +252,25 @@ fn bad_surface_input_exits_2() {
         (vec!["--material", "lava"], "lava"),
         (vec!["--frame", "9"], "no frame 9"),
         (vec!["--cube-size", "1e-6"], "marching-cubes grid"),
+        // Sizes against the domain (0.5 m) and the particle count, before any allocation.
+        (vec!["--cube-size", "1e300"], "marching-cubes cell"),
+        (vec!["--radius", "1"], "the particle radius"),
+        (vec!["--radius", "1e300"], "the particle radius"),
+        (vec!["--smoothing-length", "1e300"], "kernel's reach"),
+        (vec!["--radius", "0.05"], "neighbour candidates"),
+        (vec!["--iso", "1e300"], "--iso"),
+        // A level no region reaches: an empty surface is an error, not an empty file.
+        (vec!["--iso", "1.9"], "the surface is empty"),
     ] {
         let mut a = vec!["surface", dir];
         a.extend_from_slice(&args);
         let o = cli(&a);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+        assert!(
+            !out.join("surface").exists(),
+            "{args:?}: a failed command leaves nothing behind"
+        );
     }
     // No fluid: a jelly-only scene needs --material.
     let d2 = tmpdir("surface-solid");

@@ -92,14 +92,30 @@ pub(crate) fn block_size(path_lengths: impl Iterator<Item = usize>) -> u64 {
     (need as u64).next_power_of_two().max(MIN_BLOCK)
 }
 
+/// Whether a reader accepts a file without a checksum block.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Verify {
+    /// Only a file whose checksum block matches it (the default); a file without a block is
+    /// refused with [`IoError::Unverifiable`].
+    #[default]
+    Required,
+    /// Also an HDF5 file without a checksum block (written or rewritten by another tool, or
+    /// cut at the front). Unsafe: damage to its values goes unnoticed, and the HDF5 library,
+    /// which is not hardened against damaged files, parses its structure unprotected and may
+    /// crash or hang on it. Every dataset's size and shape are checked against its storage and
+    /// the file's length before any value is read; the rest is left to a caller that reads
+    /// such files in a process allowed to die (mpm-cli's `--unchecked` does).
+    Unchecked,
+}
+
 /// Checks the file at `path` against its checksum block (every byte, or with [`Scope::Structure`]
 /// all but the dataset values) before the HDF5 library opens it.
 ///
 /// A file that is not a regular file, or starts with neither a checksum block nor the HDF5
 /// signature, is a [`IoError::Format`] error; a mismatch is [`IoError::Damaged`] naming the
-/// dataset or part of the file. An HDF5 file without a user block (written by mpm-io before
-/// checksums existed) passes unverified.
-pub(crate) fn verify(path: &Path, scope: Scope) -> Result<(), IoError> {
+/// dataset or part of the file. An HDF5 file without a user block is
+/// [`IoError::Unverifiable`], or passes unverified with [`Verify::Unchecked`].
+pub(crate) fn verify(path: &Path, scope: Scope, trust: Verify) -> Result<(), IoError> {
     let fs_err = |source| IoError::Fs {
         path: path.to_path_buf(),
         source,
@@ -116,7 +132,12 @@ pub(crate) fn verify(path: &Path, scope: Scope) -> Result<(), IoError> {
     }
     file.read_exact(&mut head).map_err(fs_err)?;
     if &head == HDF5_SIGNATURE {
-        return Ok(());
+        return match trust {
+            Verify::Unchecked => Ok(()),
+            Verify::Required => Err(IoError::Unverifiable {
+                path: path.to_path_buf(),
+            }),
+        };
     }
     if &head != MAGIC {
         return Err(not_ours(path));

@@ -30,6 +30,16 @@ pub enum IoError {
         /// Which dataset or part of the file does not match.
         message: String,
     },
+    /// An HDF5 file without the checksum block that mpm-io writes: refused unless read with
+    /// [`crate::Verify::Unchecked`].
+    #[error(
+        "{path}: the file has no checksum block (another HDF5 tool wrote or rewrote it, or its \
+         first bytes were cut), so it cannot be verified"
+    )]
+    Unverifiable {
+        /// File.
+        path: PathBuf,
+    },
     /// The file is readable but not in the expected layout.
     #[error("{path}: {message}")]
     Format {

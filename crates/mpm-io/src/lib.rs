@@ -18,7 +18,8 @@
 //!   of every dataset's values and of the rest of the file, verified before the HDF5 library
 //!   parses the file, so a damaged file is refused with [`IoError::Damaged`] naming the dataset
 //!   instead of crashing or hanging the library (layout in the `checksum` module; [`reseal`]
-//!   recomputes them after an edit with another HDF5 tool).
+//!   recomputes them after an edit with another HDF5 tool). A file without the block is
+//!   refused with [`IoError::Unverifiable`] unless read with [`Verify::Unchecked`].
 //!
 //! Strings are variable-length UTF-8. Object modification times are not recorded, so writing
 //! the same data twice gives byte-identical files.
@@ -35,10 +36,12 @@ mod snapshot;
 mod xdmf;
 
 pub use atomic::write_atomically;
+pub use checksum::Verify;
 pub use error::IoError;
 pub use snapshot::{
-    list_files, read_file, read_header, read_layout, reseal, write_file, write_file_with, Data,
-    Field, FieldSpec, FileKind, Header, Snapshot, Storage, CONNECTIVITY_DATASET, EXTRA_ATTRS_ATTR,
-    FIELD_ORDER_ATTR, MESH_GROUP, PARTICLES_GROUP, RESERVED_ROOT_ATTRS, UNIT_ATTR,
+    list_files, read_file, read_file_with, read_header, read_header_with, read_layout,
+    read_layout_with, read_stored, reseal, write_file, write_file_with, Data, Field, FieldSpec,
+    FileKind, Header, Snapshot, Storage, CONNECTIVITY_DATASET, EXTRA_ATTRS_ATTR, FIELD_ORDER_ATTR,
+    MESH_GROUP, PARTICLES_GROUP, RESERVED_ROOT_ATTRS, UNIT_ATTR,
 };
 pub use xdmf::{write_xdmf, write_xdmf_pieces, SeriesEntry};

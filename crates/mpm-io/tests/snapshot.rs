@@ -1,8 +1,9 @@
 //! Round trips, atomic writes and error paths of the snapshot/checkpoint files.
 
 use mpm_io::{
-    list_files, read_file, read_header, read_layout, reseal, write_file, write_file_with, Data,
-    Field, FieldSpec, FileKind, Header, IoError, Storage,
+    list_files, read_file, read_file_with, read_header, read_header_with, read_layout,
+    read_layout_with, reseal, write_file, write_file_with, Data, Field, FieldSpec, FileKind,
+    Header, IoError, Storage, Verify,
 };
 use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -724,23 +725,52 @@ fn damaged_values_still_give_the_header() {
 }
 
 #[test]
-fn files_without_checksums_are_read_unverified() {
-    // A file as mpm-io wrote them before checksums: plain HDF5, no user block. Cutting off the
+fn files_without_checksums_are_refused_unless_unchecked() {
+    // A plain HDF5 file with no user block, as another HDF5 tool writes it. Cutting off the
     // user block leaves one (HDF5 addresses are relative to the superblock).
     let dir = scratch("legacy");
-    let (path, legacy) = (dir.join("new.h5"), dir.join("old.h5"));
+    let (path, plain) = (dir.join("new.h5"), dir.join("plain.h5"));
     let h = header(FileKind::Snapshot, 2);
     let fs = distinct_fields(6, 2);
     write_file(&path, &h, &fs).unwrap();
     let bytes = std::fs::read(&path).unwrap();
     let block = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
     assert!(block >= 512 && block.is_power_of_two());
-    std::fs::write(&legacy, &bytes[block..]).unwrap();
-    assert_bit_identical(&read_file(&legacy).unwrap(), &h, &fs);
-    // Without checksums a damaged shape is still caught before the values are allocated.
+    std::fs::write(&plain, &bytes[block..]).unwrap();
+    for err in [
+        read_file(&plain).unwrap_err(),
+        read_header(&plain).unwrap_err(),
+        read_layout(&plain).unwrap_err(),
+    ] {
+        assert!(matches!(err, IoError::Unverifiable { .. }), "{err:?}");
+        assert!(err.to_string().contains("no checksum block"), "{err}");
+    }
+    let unchecked = Verify::Unchecked;
+    assert_bit_identical(&read_file_with(&plain, unchecked).unwrap(), &h, &fs);
+    assert_eq!(read_header_with(&plain, unchecked).unwrap(), h);
+    assert_eq!(read_layout_with(&plain, unchecked).unwrap().0, h);
+    // Unchecked, damaged values go unnoticed (what makes the option unsafe)...
     let mut b = bytes[block..].to_vec();
     let at = payload_offset(&b, &fs[0].data);
     b[at] ^= 1;
-    std::fs::write(&legacy, &b).unwrap();
-    assert_ne!(read_file(&legacy).unwrap().fields[0], fs[0]);
+    std::fs::write(&plain, &b).unwrap();
+    assert_ne!(read_file_with(&plain, unchecked).unwrap().fields[0], fs[0]);
+    // ...but a dataset whose declared shape needs more bytes than it stores is refused before
+    // anything is allocated for it. The shape's first extent (6 rows) is found in the dataset's
+    // object header as a little-endian u64 right before the second extent and patched to 2^40.
+    let rows = 6u64.to_le_bytes();
+    let cols = 2u64.to_le_bytes();
+    let dims: Vec<u8> = rows.iter().chain(&cols).copied().collect();
+    let at = bytes[block..]
+        .windows(16)
+        .position(|w| w == dims.as_slice())
+        .expect("a [6, 2] dataspace");
+    let mut b = bytes[block..].to_vec();
+    b[at..at + 8].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    std::fs::write(&plain, &b).unwrap();
+    let err = read_file_with(&plain, unchecked).unwrap_err();
+    assert!(
+        matches!(err, IoError::Format { .. } | IoError::Hdf5 { .. }),
+        "{err:?}"
+    );
 }

@@ -22,11 +22,12 @@ mod raster;
 mod view;
 
 use crate::error::CliError;
+use crate::files::{hint, read_file};
 use crate::run::{numbered_files, snapshot_name};
 use crate::scene;
 use colour::{field_f64, positions, values_of, Colouring, CATEGORICAL, FRACTIONS};
 use frame::draw_frame;
-use mpm_io::{read_file, Data, Snapshot};
+use mpm_io::{Data, Snapshot};
 use std::path::{Path, PathBuf};
 use view::View;
 
@@ -56,6 +57,9 @@ pub struct RenderOptions {
     pub range: Option<(f64, f64)>,
     /// 3D view: one of [`VIEWS`] (default `xy`: x right, y up, seen from +z).
     pub view: Option<String>,
+    /// Whether `.h5` files without a checksum block are read (`--unchecked`; unsafe, see
+    /// [`crate::files`]).
+    pub trust: mpm_io::Verify,
 }
 
 /// One frame's particles: positions (as 3-vectors), colour values, and which are coloured.
@@ -129,7 +133,7 @@ pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
     let chosen = select_snapshots(&opts.dir, opts.frame, opts.all).map_err(bad)?;
     let mut frames = Vec::new();
     for (number, path) in &chosen {
-        let snap = read_file(path).map_err(|e| bad(e.to_string()))?;
+        let snap = read_file(path, opts.trust).map_err(|e| bad(format!("{e}{}", hint(&e))))?;
         let pos = positions(&snap).map_err(|e| bad(format!("{}: {e}", path.display())))?;
         frames.push(Frame {
             number: *number,

@@ -52,6 +52,9 @@ pub struct RunOptions {
     /// checkpoint and exit code 128 + that number; [`stop_on_signals`] sets it on SIGINT and
     /// SIGTERM. `None`: the run cannot be stopped this way.
     pub stop: Option<Arc<AtomicUsize>>,
+    /// Whether `.h5` files without a checksum block are read (`--unchecked`; unsafe, see
+    /// [`crate::files`]).
+    pub trust: mpm_io::Verify,
 }
 
 /// Code version written into every file.
@@ -325,7 +328,7 @@ where
             })
             .collect();
         match &opts.resume {
-            Some(ckpt) => r.resume(ckpt)?,
+            Some(ckpt) => r.resume(ckpt, opts.trust)?,
             None => r.clean_stale_outputs(),
         }
         Ok(r)
@@ -457,6 +460,11 @@ where
             Ok(())
         };
         if let Some(e) = failure {
+            // The run's own failure decides the exit code; a summary that could not be
+            // written is said too.
+            if let Err(w) = &write_summary {
+                crate::errln!("error: summary.json was not written: {w}");
+            }
             crate::errln!(
                 "run stopped after {} steps; outputs written so far are kept in {}",
                 self.solver.steps(),

@@ -3,11 +3,12 @@
 
 use super::{checkpoint_name, code_version, numbered_files, snapshot_name, Runner};
 use crate::error::CliError;
+use crate::files;
 use crate::state::{checkpoint_state, first_non_finite, snapshot_columns, UNITS};
 use mpm_core::{Dim, DimOps};
+use mpm_io::Verify;
 use mpm_io::{
-    read_file, read_layout, write_file, write_file_with, write_xdmf_pieces, FileKind, Header,
-    SeriesEntry,
+    read_layout, write_file, write_file_with, write_xdmf_pieces, FileKind, Header, SeriesEntry,
 };
 use std::path::Path;
 use std::time::Instant;
@@ -89,10 +90,11 @@ where
     }
 
     /// Restores the solver from a checkpoint and picks up the output series where it was.
-    pub(super) fn resume(&mut self, path: &Path) -> Result<(), CliError> {
+    pub(super) fn resume(&mut self, path: &Path, trust: Verify) -> Result<(), CliError> {
         let bad =
             |m: String| CliError::BadInput(format!("error: --resume {}: {m}", path.display()));
-        let ck = read_file(path).map_err(|e| bad(e.to_string()))?;
+        let ck =
+            files::read_file(path, trust).map_err(|e| bad(format!("{e}{}", files::hint(&e))))?;
         if ck.header.kind != FileKind::Checkpoint {
             return Err(bad("not a checkpoint (it is a snapshot)".into()));
         }
@@ -188,7 +190,7 @@ where
                 continue;
             }
             // The layout (not the values) as stored, so that f32 fields stay declared as such.
-            match read_layout(&p) {
+            match files::Checked::open(&p, trust).and_then(|f| f.read_layout()) {
                 Ok((h, fields)) => {
                     if h.step == ck.header.step {
                         self.last_snapshot_step = Some(h.step);

@@ -2,7 +2,7 @@
 //! velocity field. The keys `phase`, `initial_phi_eff`, `concentration`, `geostatic` and `k0`
 //! belong to the explicit solver (`super::explicit`), which resolves all but the first.
 
-use super::materials::{material_index, MaterialDef};
+use super::materials::{MaterialDef, MaterialNames};
 use super::Checker;
 use mpm_core::sampling::{polygon_defect, PolygonDefect, Shape};
 use serde::{Deserialize, Serialize};
@@ -213,7 +213,11 @@ pub(crate) fn phase_count(bodies: &[BodyDef]) -> u32 {
         .map_or(1, |k| k.saturating_add(1))
 }
 
-/// Resolves `[[bodies]]`: at least one body, with distinct names.
+/// Most `[[bodies]]` entries a scene may have (many bodies are better sampled from one mesh
+/// or polygon file); a bound on what a scene can make `check` allocate per body.
+pub const MAX_BODIES: usize = 100_000;
+
+/// Resolves `[[bodies]]`: at least one and at most [`MAX_BODIES`] bodies, with distinct names.
 pub(super) fn resolve_bodies(
     c: &mut Checker<'_>,
     raw: &[RawBody],
@@ -221,16 +225,25 @@ pub(super) fn resolve_bodies(
     materials: &[MaterialDef],
     base: &Path,
 ) -> Vec<BodyDef> {
+    if raw.len() > MAX_BODIES {
+        c.err(
+            "bodies",
+            format!("{} [[bodies]] entries; at most {MAX_BODIES}", raw.len()),
+        );
+        return Vec::new();
+    }
+    let names = MaterialNames::new(materials);
     let bodies: Vec<BodyDef> = raw
         .iter()
         .enumerate()
-        .map(|(i, b)| resolve_body(c, i, b, d, materials, base))
+        .map(|(i, b)| resolve_body(c, i, b, d, &names, base))
         .collect();
     if raw.is_empty() {
         c.err("bodies", "a scene needs at least one [[bodies]] entry");
     }
+    let mut seen = std::collections::HashSet::new();
     for (i, b) in bodies.iter().enumerate() {
-        if bodies[..i].iter().any(|o| o.name == b.name) {
+        if !seen.insert(b.name.as_str()) {
             c.err(
                 &format!("bodies[{i}].name"),
                 format!("duplicate body name \"{}\"", b.name),
@@ -245,12 +258,12 @@ fn resolve_body(
     i: usize,
     b: &RawBody,
     d: usize,
-    materials: &[MaterialDef],
+    materials: &MaterialNames<'_>,
     base: &Path,
 ) -> BodyDef {
     let k = |name: &str| format!("bodies[{i}].{name}");
     let name = b.name.clone().unwrap_or_else(|| format!("body{i}"));
-    let material_index = material_index(c, &k("material"), &b.material, materials).unwrap_or(0);
+    let material_index = materials.find(c, &k("material"), &b.material).unwrap_or(0);
     let phase = b.phase.unwrap_or(0);
     if phase >= MAX_PHASES {
         c.err(

@@ -229,11 +229,25 @@ impl ModelDef {
 }
 
 /// Resolves `[[materials]]`: at least one entry, with distinct names.
+/// Most `[[materials]]` entries a scene may have: far more than any multi-material scene needs,
+/// and a bound on what a scene can make `check` and the solvers allocate per material.
+pub const MAX_MATERIALS: usize = 10_000;
+
 pub(super) fn resolve_materials(
     c: &mut Checker<'_>,
     raw: &[RawMaterial],
     d: usize,
 ) -> Vec<MaterialDef> {
+    if raw.len() > MAX_MATERIALS {
+        c.err(
+            "materials",
+            format!(
+                "{} [[materials]] entries; at most {MAX_MATERIALS}",
+                raw.len()
+            ),
+        );
+        return Vec::new();
+    }
     let materials: Vec<MaterialDef> = raw
         .iter()
         .enumerate()
@@ -245,8 +259,9 @@ pub(super) fn resolve_materials(
             "a scene needs at least one [[materials]] entry",
         );
     }
+    let mut seen = std::collections::HashSet::new();
     for (i, m) in materials.iter().enumerate() {
-        if materials[..i].iter().any(|o| o.name == m.name) {
+        if !seen.insert(m.name.as_str()) {
             c.err(
                 &format!("materials[{i}].name"),
                 format!("duplicate material name \"{}\"", m.name),
@@ -256,6 +271,35 @@ pub(super) fn resolve_materials(
     materials
 }
 
+/// The materials of a scene by name, for lookups in constant time (so that resolving many
+/// bodies stays linear in the scene size).
+pub(crate) struct MaterialNames<'a> {
+    /// The materials.
+    defs: &'a [MaterialDef],
+    /// Each name's first index.
+    index: std::collections::HashMap<&'a str, usize>,
+}
+
+impl<'a> MaterialNames<'a> {
+    /// Indexes `defs` by name.
+    pub(crate) fn new(defs: &'a [MaterialDef]) -> Self {
+        let mut index = std::collections::HashMap::new();
+        for (i, m) in defs.iter().enumerate() {
+            index.entry(m.name.as_str()).or_insert(i);
+        }
+        MaterialNames { defs, index }
+    }
+
+    /// The index of material `name`, or an error at `key` listing the materials.
+    pub(crate) fn find(&self, c: &mut Checker<'_>, key: &str, name: &str) -> Option<usize> {
+        let found = self.index.get(name).copied();
+        if found.is_none() {
+            unknown_material(c, key, name, self.defs);
+        }
+        found
+    }
+}
+
 /// The index of material `name`, or an error at `key` listing the materials.
 pub(crate) fn material_index(
     c: &mut Checker<'_>,
@@ -263,25 +307,33 @@ pub(crate) fn material_index(
     name: &str,
     materials: &[MaterialDef],
 ) -> Option<usize> {
-    let found = materials.iter().position(|m| m.name == name);
-    if found.is_none() {
-        let names: Vec<_> = materials
-            .iter()
-            .map(|m| format!("\"{}\"", m.name))
-            .collect();
-        c.err(
-            key,
-            format!(
-                "unknown material \"{name}\" (defined: {})",
-                if names.is_empty() {
-                    "none".to_string()
-                } else {
-                    names.join(", ")
-                }
-            ),
-        );
+    MaterialNames::new(materials).find(c, key, name)
+}
+
+/// How many material names an "unknown material" error lists.
+const LISTED_NAMES: usize = 20;
+
+/// Reports at `key` that no material is called `name`, listing the first materials.
+fn unknown_material(c: &mut Checker<'_>, key: &str, name: &str, materials: &[MaterialDef]) {
+    let mut names: Vec<_> = materials
+        .iter()
+        .take(LISTED_NAMES)
+        .map(|m| format!("\"{}\"", m.name))
+        .collect();
+    if materials.len() > LISTED_NAMES {
+        names.push(format!("and {} more", materials.len() - LISTED_NAMES));
     }
-    found
+    c.err(
+        key,
+        format!(
+            "unknown material \"{name}\" (defined: {})",
+            if names.is_empty() {
+                "none".to_string()
+            } else {
+                names.join(", ")
+            }
+        ),
+    );
 }
 
 /// Smallest accepted material density (kg/m³, in 2D kg/m²), far below any physical material

@@ -273,6 +273,7 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedScene, SceneError> {
         spans: &spans,
         text,
         items: Vec::new(),
+        unreported: 0,
     };
     let scene = resolve(&mut c, raw, solver_tables, path);
     match scene {
@@ -285,6 +286,16 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedScene, SceneError> {
         _ => {
             let mut items = c.items;
             items.sort_by_key(|d| d.span.as_ref().map_or(usize::MAX, |s| s.start));
+            if c.unreported > 0 {
+                items.push(Diagnostic {
+                    key: None,
+                    span: None,
+                    message: format!(
+                        "{} more problems not shown (at most {MAX_PROBLEMS} are reported)",
+                        c.unreported
+                    ),
+                });
+            }
             Err(SceneError::new(path, text, items))
         }
     }
@@ -364,11 +375,22 @@ pub(crate) struct Checker<'a> {
     spans: &'a SpanIndex,
     text: &'a str,
     items: Vec<Diagnostic>,
+    /// Problems found beyond [`MAX_PROBLEMS`].
+    unreported: usize,
 }
+
+/// Most problems reported for one scene: locating each costs time proportional to the scene's
+/// size, and a scene with thousands of problems (say, ten thousand bodies naming a missing
+/// material) is told enough by the first hundred.
+pub const MAX_PROBLEMS: usize = 100;
 
 impl Checker<'_> {
     /// Records a problem at `key`.
     pub(crate) fn err(&mut self, key: &str, message: impl Into<String>) {
+        if self.items.len() >= MAX_PROBLEMS {
+            self.unreported += 1;
+            return;
+        }
         self.items.push(Diagnostic {
             key: Some(key.to_string()),
             span: self.spans.locate(key),

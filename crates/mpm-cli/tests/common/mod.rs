@@ -3,7 +3,8 @@
 
 use mpm_io::{Data, Snapshot};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 /// The Python that can `import` the comma-separated `modules`: `$MPM_PYTHON` when set (CI
 /// points it at a venv with them, and a missing module then fails the test that uses it), else
@@ -703,3 +704,58 @@ interval_steps = 10
 interval_steps = 10
 keep = 10
 "#;
+
+/// How a child process ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// Exit code.
+    Code(i32),
+    /// Killed by a signal (a crash).
+    Signal,
+    /// Still running at the timeout; it was killed.
+    Hang,
+}
+
+/// Runs the binary with `args` and the environment variables `env` (stdout and stderr to
+/// `log_dir/stdout`, `log_dir/stderr`), killing it after `timeout`; returns how it ended and
+/// its stdout and stderr.
+pub fn run_with_timeout(
+    args: &[&str],
+    env: &[(&str, &str)],
+    log_dir: &Path,
+    timeout: Duration,
+) -> (Outcome, String, String) {
+    let (out_path, err_path) = (log_dir.join("stdout"), log_dir.join("stderr"));
+    let file = |p: &PathBuf| Stdio::from(std::fs::File::create(p).expect("log file"));
+    let mut child = Command::new(bin())
+        .args(args)
+        .envs(env.iter().copied())
+        .stdin(Stdio::null())
+        .stdout(file(&out_path))
+        .stderr(file(&err_path))
+        .spawn()
+        .expect("spawn mpm-cli");
+    let start = Instant::now();
+    let outcome = loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            break status.code().map_or(Outcome::Signal, Outcome::Code);
+        }
+        if start.elapsed() > timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            break Outcome::Hang;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    };
+    let read = |p: &PathBuf| std::fs::read_to_string(p).unwrap_or_default();
+    (outcome, read(&out_path), read(&err_path))
+}
+
+/// The snapshots and checkpoints of a run directory, by number, with their bytes.
+pub fn outputs(dir: &Path) -> Vec<(u64, Vec<u8>)> {
+    ["snap_", "ckpt_"]
+        .iter()
+        .flat_map(|p| mpm_cli::run::numbered_files(dir, p))
+        .map(|(n, p)| (n, std::fs::read(p).expect("output")))
+        .collect()
+}

@@ -4,7 +4,7 @@ mod read;
 mod write;
 
 use crate::atomic::replace_atomically;
-use crate::checksum::{self, Scope};
+use crate::checksum::{self, Scope, Verify};
 use crate::IoError;
 use read::{field_dataset, field_order, field_spec, open, particles_group, read_header_from};
 use std::path::{Path, PathBuf};
@@ -238,22 +238,42 @@ pub fn reseal(path: &Path) -> Result<(), IoError> {
 ///
 /// Before the HDF5 library parses the file, every byte is checked against the checksums in its
 /// user block: a damaged file gives [`IoError::Damaged`] naming the dataset whose values, or the
-/// part of the file, that does not match (files written before mpm-io had checksums, HDF5 with
-/// no user block, are read unverified). A file that is neither gives [`IoError::Format`].
+/// part of the file, that does not match; an HDF5 file without the block gives
+/// [`IoError::Unverifiable`] (see [`read_file_with`]). A file that is neither gives
+/// [`IoError::Format`].
 ///
 /// Fields come back in the order they were written (the `field_order` attribute of
 /// `/particles`); extra attributes in the order of the root `extra_attrs` attribute. A missing
-/// attribute, group or dataset, or one of an unexpected type, gives [`IoError::Format`] naming
-/// it; a file that is not HDF5 gives [`IoError::Hdf5`]; a file that cannot be accessed gives
-/// [`IoError::Fs`].
+/// attribute, group or dataset, or one of an unexpected type, shape or size, gives
+/// [`IoError::Format`] naming it; a file that is not HDF5 gives [`IoError::Hdf5`]; a file that
+/// cannot be accessed gives [`IoError::Fs`].
 pub fn read_file(path: &Path) -> Result<Snapshot, IoError> {
-    let file = open(path, Scope::All)?;
+    read_file_with(path, Verify::Required)
+}
+
+/// [`read_file`], also accepting a file without a checksum block with
+/// [`Verify::Unchecked`] (unsafe; see there). Every dataset's type, shape and size is checked
+/// against its storage and the file's length before any value is read.
+pub fn read_file_with(path: &Path, trust: Verify) -> Result<Snapshot, IoError> {
+    read_stored(path, trust).map(|(snapshot, _)| snapshot)
+}
+
+/// [`read_file_with`], also returning how each field is stored ([`read_layout`]), from one
+/// opening of the file.
+pub fn read_stored(path: &Path, trust: Verify) -> Result<(Snapshot, Vec<FieldSpec>), IoError> {
+    let file = open(path, Scope::All, trust)?;
     let header = read_header_from(&file, path)?;
     let group = particles_group(&file, path)?;
-    let mut fields = Vec::new();
+    let mut datasets = Vec::new();
     for name in field_order(&group, path)? {
         let ds = field_dataset(&group, path, &name)?;
         let spec = field_spec(&ds, path, &name)?;
+        datasets.push((ds, spec));
+    }
+    let specs: Vec<FieldSpec> = datasets.iter().map(|(_, s)| s.clone()).collect();
+    let mut fields = Vec::new();
+    for (ds, spec) in datasets {
+        let name = spec.name;
         let data = if spec.single {
             Data::F64 {
                 values: ds
@@ -294,13 +314,19 @@ pub fn read_file(path: &Path) -> Result<Snapshot, IoError> {
             data,
         });
     }
-    Ok(Snapshot { header, fields })
+    Ok((Snapshot { header, fields }, specs))
 }
 
 /// Reads only the root attributes of a file written by [`write_file`] (no particle data; the
 /// checksums of everything but the particle values are verified).
 pub fn read_header(path: &Path) -> Result<Header, IoError> {
-    let file = open(path, Scope::Structure)?;
+    read_header_with(path, Verify::Required)
+}
+
+/// [`read_header`], also accepting a file without a checksum block with
+/// [`Verify::Unchecked`] (unsafe; see there).
+pub fn read_header_with(path: &Path, trust: Verify) -> Result<Header, IoError> {
+    let file = open(path, Scope::Structure, trust)?;
     read_header_from(&file, path)
 }
 
@@ -308,7 +334,13 @@ pub fn read_header(path: &Path) -> Result<Header, IoError> {
 /// file order, without reading the values (e.g. to rebuild the XDMF sidecar of a run; the
 /// checksums of everything but the particle values are verified).
 pub fn read_layout(path: &Path) -> Result<(Header, Vec<FieldSpec>), IoError> {
-    let file = open(path, Scope::Structure)?;
+    read_layout_with(path, Verify::Required)
+}
+
+/// [`read_layout`], also accepting a file without a checksum block with
+/// [`Verify::Unchecked`] (unsafe; see there).
+pub fn read_layout_with(path: &Path, trust: Verify) -> Result<(Header, Vec<FieldSpec>), IoError> {
+    let file = open(path, Scope::Structure, trust)?;
     let header = read_header_from(&file, path)?;
     let group = particles_group(&file, path)?;
     let mut specs = Vec::new();

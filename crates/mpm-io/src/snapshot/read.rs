@@ -6,14 +6,15 @@ use super::{
     dataset_path, format_err, h5err, FieldSpec, FileKind, Header, EXTRA_ATTRS_ATTR,
     FIELD_ORDER_ATTR, PARTICLES_GROUP, UNIT_ATTR,
 };
-use crate::checksum::{self, Scope};
+use crate::checksum::{self, Scope, Verify};
 use crate::IoError;
 use hdf5::types::{FloatSize, IntSize, TypeDescriptor, VarLenAscii, VarLenUnicode};
 use std::path::Path;
 
-/// Opens `path` with the HDF5 library once its checksums over `scope` match.
-pub(super) fn open(path: &Path, scope: Scope) -> Result<hdf5::File, IoError> {
-    checksum::verify(path, scope)?;
+/// Opens `path` with the HDF5 library once its checksums over `scope` match (or, with
+/// [`Verify::Unchecked`], when it has none).
+pub(super) fn open(path: &Path, scope: Scope, trust: Verify) -> Result<hdf5::File, IoError> {
+    checksum::verify(path, scope, trust)?;
     hdf5::File::open(path).map_err(h5err(path, "opening the file as HDF5"))
 }
 
@@ -133,6 +134,24 @@ pub(super) fn field_spec(
         Some(n) => n == stored,
         None => false,
     };
+    // A contiguous dataset's values must lie inside the file.
+    let file_len = std::fs::metadata(path)
+        .map_err(|source| IoError::Fs {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .len();
+    if let Some(at) = ds.offset() {
+        if at.checked_add(stored).is_none_or(|end| end > file_len) {
+            return Err(format_err(
+                path,
+                format!(
+                    "{what}: its {stored} bytes at offset {at} lie past the end of the file \
+                     ({file_len} bytes)"
+                ),
+            ));
+        }
+    }
     if !fits {
         return Err(format_err(
             path,
