@@ -138,7 +138,8 @@ enum Command {
         /// material of the scene).
         #[arg(long = "material", value_name = "MATERIAL")]
         materials: Vec<String>,
-        /// Particle radius in m (default: half the median particle spacing, volume0^(1/3) / 2).
+        /// Particle radius in m (default: half the median particle spacing, volume0^(1/3) / 2, or
+        /// without volume0 in the snapshots half the spacing the stored scene samples with).
         #[arg(long, value_name = "M", allow_negative_numbers = true)]
         radius: Option<f64>,
         /// Kernel smoothing length in particle radii (the kernel reaches twice as far).

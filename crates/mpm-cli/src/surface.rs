@@ -6,7 +6,8 @@
 //!
 //! Parameters are relative to the particle radius `r`, by default half the median particle
 //! spacing (`volume0^(1/3) / 2`, so that splashsurf's particle volume `(2r)³` is the
-//! particles' own): kernel smoothing length 2 r (compact support 4 r), marching-cubes cells of
+//! particles' own; without `volume0` in the snapshot, the finest spacing the stored scene
+//! samples the surface's materials with): kernel smoothing length 2 r (compact support 4 r), marching-cubes cells of
 //! 0.5 r, iso-surface at 0.6 of the rest density (splashsurf's own defaults). Each frame is
 //! reconstructed on one thread (frames run in parallel), so the files do not depend on the
 //! number of threads.
@@ -14,7 +15,7 @@
 use crate::error::CliError;
 use crate::files::{hint, read_file};
 use crate::render::{particle_spacing, select_snapshots};
-use crate::scene::{self, ModelDef};
+use crate::scene::{self, ModelDef, SamplingDef};
 use mpm_io::Data;
 use rayon::prelude::*;
 use splashsurf_lib::nalgebra::Vector3;
@@ -242,12 +243,15 @@ fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, Str
     let radius = match opts.radius {
         Some(r) => r,
         None => {
-            0.5 * particle_spacing(&s, 3).ok_or_else(|| {
-                format!(
-                    "{}: no `volume0` to derive the particle spacing from; give --radius",
-                    path.display()
-                )
-            })?
+            0.5 * particle_spacing(&s, 3)
+                .or_else(|| sampled_spacing(&stored.scene, &chosen))
+                .ok_or_else(|| {
+                    format!(
+                        "{}: no `volume0` and no body of the chosen materials in the stored \
+                         scene to derive the particle spacing from; give --radius",
+                        path.display()
+                    )
+                })?
         }
     };
     let grid = &stored.scene.grid;
@@ -260,6 +264,21 @@ fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, Str
         time: s.header.time,
         domain,
     })
+}
+
+/// The smallest particle spacing (m) the stored scene samples the chosen materials' bodies
+/// with: the cell size over the particles per cell and axis on a lattice, the minimum distance
+/// with Poisson-disk sampling. `None` when no body is of those materials.
+fn sampled_spacing(scene: &scene::Scene, chosen: &[u32]) -> Option<f64> {
+    scene
+        .bodies
+        .iter()
+        .filter(|b| chosen.contains(&(b.material_index as u32)))
+        .map(|b| match b.sampling {
+            SamplingDef::Lattice { per_axis, .. } => scene.grid.dx / f64::from(per_axis.max(1)),
+            SamplingDef::Poisson { poisson_radius, .. } => poisson_radius,
+        })
+        .min_by(f64::total_cmp)
 }
 
 /// A triangle mesh: vertices (m) and triangles (indices, counter-clockwise seen from outside).

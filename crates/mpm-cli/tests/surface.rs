@@ -285,3 +285,66 @@ fn bad_surface_input_exits_2() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("3D"), "{}", stderr(&o));
 }
+
+/// The particle radius (m) and particle count `mpm-cli surface` recorded in a PLY file's
+/// comment and printed line.
+fn radius_of(ply: &Path) -> f64 {
+    let bytes = std::fs::read(ply).expect("ply");
+    let text = String::from_utf8_lossy(&bytes[..bytes.len().min(1024)]);
+    let comment = text
+        .lines()
+        .find(|l| l.starts_with("comment mpm-cli surface"))
+        .expect("comment");
+    let r = comment.split("radius ").nth(1).expect("radius");
+    r.trim_end_matches(" m").parse().expect("a number")
+}
+
+#[test]
+fn every_shipped_3d_fluid_scene_gets_a_surface_without_options() {
+    let d = tmpdir("surface-shipped");
+    let mut done = Vec::new();
+    for entry in std::fs::read_dir(scenes_dir()).expect("scenes") {
+        let path = entry.expect("entry").path();
+        if path.extension().and_then(|e| e.to_str()) != Some("toml") {
+            continue;
+        }
+        let name = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .expect("name")
+            .to_string();
+        let text = example_scene_text(&path);
+        let fluid = text.contains("model = \"tait\"") || text.contains("preset = \"water\"");
+        if !name.ends_with("_3d") || !fluid {
+            continue;
+        }
+        // The first frames only: one step past the initial snapshot.
+        let short: Vec<String> = text
+            .lines()
+            .map(|l| match l.starts_with("end_time") {
+                true => "end_time = 1e-9".to_string(),
+                false => l.to_string(),
+            })
+            .collect();
+        let dir = d.join(&name);
+        std::fs::create_dir_all(&dir).expect("dir");
+        let out = run(&dir, &short.join("\n"));
+        let printed = surface(&out, &["--frame", "0"], "2");
+        let ply = out.join("surface/surface_000000.ply");
+        let mesh = read_ply(&ply);
+        assert!(mesh.closed_and_oriented(), "{name}: {printed}");
+        // The enclosed volume against the particles' own: N (2r)³, r half the spacing.
+        let n: f64 = printed
+            .split(": ")
+            .nth(1)
+            .and_then(|s| s.split(' ').next())
+            .and_then(|s| s.parse().ok())
+            .expect("particle count");
+        let own = n * (2.0 * radius_of(&ply)).powi(3);
+        let ratio = mesh.volume() / own;
+        eprintln!("{name}: {n} particles, surface volume / particle volume {ratio:.3}");
+        assert!((0.85..1.15).contains(&ratio), "{name}: {ratio}: {printed}");
+        done.push(name);
+    }
+    assert!(done.len() >= 8, "the shipped 3D fluid scenes: {done:?}");
+}
