@@ -121,8 +121,10 @@ enum Command {
     },
     /// Reconstruct the fluid's surface of every 3D snapshot (or one, with --frame) as a
     /// triangle mesh with splashsurf, written to DIR/surface/surface_NNNNNN.ply (binary PLY,
-    /// opened by Blender, ParaView, MeshLab). Prints each file with its vertex and triangle
-    /// counts and enclosed volume.
+    /// opened by Blender, ParaView, MeshLab) with per-vertex velocity vx vy vz and speed (m/s,
+    /// averaged from the particles around each vertex) and material (an index; the file's
+    /// comments name each). Prints each file with its vertex and triangle counts and enclosed
+    /// volume.
     ///
     /// Sizes are checked before anything is allocated: the radius, the kernel's reach and the
     /// cells no larger than the scene's domain, at most 2e9 marching-cubes cells and 2048

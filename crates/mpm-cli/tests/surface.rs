@@ -56,8 +56,16 @@ interval_steps = 10
 struct Ply {
     vertices: Vec<[f64; 3]>,
     triangles: Vec<[usize; 3]>,
+    /// Per-vertex float properties besides x, y, z, by name.
+    floats: HashMap<String, Vec<f64>>,
+    /// Per-vertex `material`.
+    material: Vec<i32>,
+    /// The comment lines.
+    comments: Vec<String>,
 }
 
+/// Parses a binary PLY as written by `mpm-cli surface`, strictly: x y z floats first, then
+/// float properties and an int `material`, then triangles.
 fn read_ply(path: &Path) -> Ply {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let end = bytes
@@ -66,6 +74,11 @@ fn read_ply(path: &Path) -> Ply {
         .expect("end_header")
         + 11;
     let header = std::str::from_utf8(&bytes[..end]).expect("ASCII header");
+    let comments = header
+        .lines()
+        .filter_map(|l| l.strip_prefix("comment "))
+        .map(str::to_string)
+        .collect();
     let lines: Vec<&str> = header
         .lines()
         .filter(|l| !l.starts_with("comment"))
@@ -77,27 +90,50 @@ fn read_ply(path: &Path) -> Ply {
         .expect("element vertex")
         .parse()
         .expect("vertex count");
-    assert_eq!(
-        lines[3..6],
-        ["property float x", "property float y", "property float z"]
-    );
-    let m: usize = lines[6]
+    let face = lines
+        .iter()
+        .position(|l| l.starts_with("element face "))
+        .expect("faces");
+    let props: Vec<(&str, &str)> = lines[3..face]
+        .iter()
+        .map(|l| {
+            let mut w = l.strip_prefix("property ").expect("property").split(' ');
+            (w.next().expect("type"), w.next().expect("name"))
+        })
+        .collect();
+    assert_eq!(props[..3], [("float", "x"), ("float", "y"), ("float", "z")]);
+    assert_eq!(props.last(), Some(&("int", "material")));
+    assert!(props[3..props.len() - 1].iter().all(|(t, _)| *t == "float"));
+    let m: usize = lines[face]
         .strip_prefix("element face ")
         .expect("element face")
         .parse()
         .expect("face count");
-    assert_eq!(lines[7], "property list uchar int vertex_indices");
-    assert_eq!(lines[8], "end_header");
-    assert_eq!(lines.len(), 9);
+    assert_eq!(lines[face + 1], "property list uchar int vertex_indices");
+    assert_eq!(lines[face + 2], "end_header");
+    assert_eq!(lines.len(), face + 3);
     let body = &bytes[end..];
-    assert_eq!(body.len(), 12 * n + 13 * m, "data size");
+    let stride = 4 * props.len();
+    assert_eq!(body.len(), stride * n + 13 * m, "data size");
     let f32_at = |o: usize| f32::from_le_bytes(body[o..o + 4].try_into().unwrap()) as f64;
     let vertices = (0..n)
-        .map(|k| [0, 1, 2].map(|a| f32_at(12 * k + 4 * a)))
+        .map(|k| [0, 1, 2].map(|a| f32_at(stride * k + 4 * a)))
+        .collect();
+    let floats = (3..props.len() - 1)
+        .map(|j| {
+            let values = (0..n).map(|k| f32_at(stride * k + 4 * j)).collect();
+            (props[j].1.to_string(), values)
+        })
+        .collect();
+    let material = (0..n)
+        .map(|k| {
+            let o = stride * k + stride - 4;
+            i32::from_le_bytes(body[o..o + 4].try_into().unwrap())
+        })
         .collect();
     let triangles = (0..m)
         .map(|k| {
-            let o = 12 * n + 13 * k;
+            let o = stride * n + 13 * k;
             assert_eq!(body[o], 3, "face {k} is a triangle");
             [0, 1, 2].map(|a| {
                 let i = i32::from_le_bytes(body[o + 1 + 4 * a..o + 5 + 4 * a].try_into().unwrap());
@@ -109,6 +145,9 @@ fn read_ply(path: &Path) -> Ply {
     Ply {
         vertices,
         triangles,
+        floats,
+        material,
+        comments,
     }
 }
 
@@ -207,6 +246,59 @@ fn the_surface_of_a_particle_block_encloses_its_volume() {
         let p = read_ply(&out.join(format!("surface/surface_{frame:06}.ply")));
         assert!(p.vertices.iter().flatten().all(|c| (0.0..=0.5).contains(c)));
         assert!((p.volume() / 0.008 - 1.0).abs() < 0.02);
+    }
+    // Vertex attributes: the velocity is a normalised average of the water particles around
+    // each vertex, so each component lies within the particles' range; speed is its norm;
+    // every vertex is water (material 0, named in the comments).
+    let last = read_ply(&out.join("surface/surface_000002.ply"));
+    let snap = mpm_io::read_file(&out.join("snap_000002.h5")).expect("snapshot");
+    let v = f64_field(&snap, "v");
+    let water: Vec<usize> = match &snap.field("material").expect("material").data {
+        mpm_io::Data::U32 { values, .. } => (0..values.len()).filter(|&p| values[p] == 0).collect(),
+        _ => panic!("material is u32"),
+    };
+    for (a, name) in ["vx", "vy", "vz"].iter().enumerate() {
+        let (lo, hi) = water
+            .iter()
+            .map(|&p| v[3 * p + a])
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
+                (l.min(x), h.max(x))
+            });
+        let vertex = &last.floats[*name];
+        let slack = 1e-6 * (hi.abs() + lo.abs() + 1e-3);
+        assert!(
+            vertex.iter().all(|x| (lo - slack..=hi + slack).contains(x)),
+            "{name} outside [{lo}, {hi}]"
+        );
+        if *name == "vy" {
+            // Falling for 20 steps: every vertex moves down.
+            assert!(hi < 0.0 && vertex.iter().all(|x| *x < 0.0), "{lo} {hi}");
+        }
+    }
+    for k in 0..last.vertices.len() {
+        let u = ["vx", "vy", "vz"].map(|c| last.floats[c][k]);
+        let norm = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+        assert!((last.floats["speed"][k] - norm).abs() <= 1e-6 * norm + 1e-9);
+    }
+    assert!(last.material.iter().all(|&m| m == 0));
+    assert!(last.comments.contains(&"material 0 = water".to_string()));
+    assert!(last.comments.contains(&"material 1 = jelly".to_string()));
+    // Water and jelly together: vertices of both, each where its particles are.
+    surface(
+        &out,
+        &["--material", "water", "--material", "jelly", "--frame", "0"],
+        "1",
+    );
+    let both = read_ply(&first);
+    for (m, x_range) in [(0, 0.05..0.35), (1, 0.3..0.5)] {
+        let mine: Vec<_> = (0..both.vertices.len())
+            .filter(|&k| both.material[k] == m)
+            .collect();
+        assert!(!mine.is_empty(), "material {m} has vertices");
+        assert!(
+            mine.iter().all(|&k| x_range.contains(&both.vertices[k][0])),
+            "material {m}"
+        );
     }
     // Another thread count gives the same bytes.
     surface(&out, &[], "2");

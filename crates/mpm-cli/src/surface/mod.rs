@@ -2,7 +2,8 @@
 //! reconstructed with `splashsurf_lib` (an SPH density of the particles, cubic spline kernel,
 //! sampled on a marching-cubes grid and contoured at a fraction of the rest density), written
 //! as binary PLY files `DIR/surface/surface_NNNNNN.ply` that Blender, ParaView and MeshLab
-//! open.
+//! open, with each vertex's velocity, speed and material taken from the particles around it
+//! (`ply`).
 //!
 //! Parameters are relative to the particle radius `r`, by default half the median particle
 //! spacing (`volume0^(1/3) / 2`, so that splashsurf's particle volume `(2r)³` is the
@@ -11,6 +12,8 @@
 //! 0.5 r, iso-surface at 0.6 of the rest density (splashsurf's own defaults). Each frame is
 //! reconstructed on one thread (frames run in parallel), so the files do not depend on the
 //! number of threads.
+
+mod ply;
 
 use crate::error::CliError;
 use crate::files::{hint, read_file};
@@ -126,11 +129,23 @@ pub fn surface(opts: &SurfaceOptions) -> Result<Vec<SurfaceFile>, CliError> {
             }
             let volume = enclosed_volume(&mesh.0, &mesh.1);
             let ply = out_dir.join(format!("surface_{frame:06}.ply"));
-            let comment = format!(
+            let vertices: Vec<Vector3<f64>> = mesh.0.iter().map(|v| Vector3::from(*v)).collect();
+            let particles = ply::Particles {
+                positions: &f.positions,
+                velocities: f.velocities.as_deref(),
+                materials: &f.materials,
+                support: 2.0 * opts.smoothing_length * f.radius,
+            };
+            let attributes = ply::attributes(&particles, &vertices);
+            let mut comments = vec![format!(
                 "mpm-cli surface: frame {frame}, t = {} s, radius {} m",
                 f.time, f.radius
+            )];
+            comments.extend(
+                (f.names.iter().enumerate()).map(|(k, name)| format!("material {k} = {name}")),
             );
-            std::fs::write(&ply, ply_bytes(&mesh.0, &mesh.1, &comment)).map_err(|e| {
+            let bytes = ply::ply_bytes(&vertices, &attributes, &mesh.1, &comments);
+            std::fs::write(&ply, bytes).map_err(|e| {
                 CliError::Other(format!("error: cannot write {}: {e}", ply.display()))
             })?;
             Ok(SurfaceFile {
@@ -175,6 +190,12 @@ const MAX_NEIGHBOURS: f64 = 2048.0;
 struct FluidFrame {
     /// Positions (m).
     positions: Vec<Vector3<f64>>,
+    /// Velocities (m/s), when the snapshot has them.
+    velocities: Option<Vec<Vector3<f64>>>,
+    /// Material index of each particle.
+    materials: Vec<u32>,
+    /// The scene's material names, by index.
+    names: Vec<String>,
     /// Particle radius (m).
     radius: f64,
     /// Time of the snapshot (s).
@@ -236,10 +257,17 @@ fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, Str
         _ if materials.len() == 1 => vec![0; n],
         _ => return Err(format!("{}: no field `material`", path.display())),
     };
-    let positions = (0..n)
-        .filter(|&p| chosen.contains(&material[p]))
-        .map(|p| Vector3::new(x[3 * p], x[3 * p + 1], x[3 * p + 2]))
-        .collect();
+    let kept: Vec<usize> = (0..n).filter(|&p| chosen.contains(&material[p])).collect();
+    let row = |values: &[f64], p: usize| {
+        Vector3::new(values[3 * p], values[3 * p + 1], values[3 * p + 2])
+    };
+    let positions = kept.iter().map(|&p| row(x, p)).collect();
+    let velocities = match s.field("v").map(|f| &f.data) {
+        Some(Data::F64 { values, shape }) if shape[..] == [n, 3] => {
+            Some(kept.iter().map(|&p| row(values, p)).collect())
+        }
+        _ => None,
+    };
     let radius = match opts.radius {
         Some(r) => r,
         None => {
@@ -260,6 +288,9 @@ fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, Str
         .fold(0.0, f64::max);
     Ok(FluidFrame {
         positions,
+        velocities,
+        materials: kept.iter().map(|&p| material[p]).collect(),
+        names: names.iter().map(|n| n.to_string()).collect(),
         radius,
         time: s.header.time,
         domain,
@@ -381,32 +412,6 @@ pub fn enclosed_volume(vertices: &[[f64; 3]], triangles: &[[usize; 3]]) -> f64 {
         .sum()
 }
 
-/// A binary little-endian PLY file: `float` vertex coordinates (m) and triangles as
-/// `uchar`-counted `int` index lists.
-fn ply_bytes(vertices: &[[f64; 3]], triangles: &[[usize; 3]], comment: &str) -> Vec<u8> {
-    let header = format!(
-        "ply\nformat binary_little_endian 1.0\ncomment {comment}\nelement vertex {}\n\
-         property float x\nproperty float y\nproperty float z\nelement face {}\n\
-         property list uchar int vertex_indices\nend_header\n",
-        vertices.len(),
-        triangles.len()
-    );
-    let mut out = Vec::with_capacity(header.len() + 12 * vertices.len() + 13 * triangles.len());
-    out.extend_from_slice(header.as_bytes());
-    for v in vertices {
-        for c in v {
-            out.extend_from_slice(&(*c as f32).to_le_bytes());
-        }
-    }
-    for t in triangles {
-        out.push(3);
-        for &i in t {
-            out.extend_from_slice(&(i as i32).to_le_bytes());
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -428,16 +433,5 @@ mod tests {
             .map(|p| [p[0] + 5.0, p[1] - 2.0, p[2] + 1.0])
             .collect();
         assert!((enclosed_volume(&w, &t) - 1.0 / 6.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn ply_header_counts_and_sizes() {
-        let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-        let b = ply_bytes(&v, &[[0, 1, 2]], "test");
-        let text = String::from_utf8_lossy(&b);
-        let end = text.find("end_header\n").expect("end_header") + "end_header\n".len();
-        assert!(text.starts_with("ply\nformat binary_little_endian 1.0\n"));
-        assert!(text.contains("element vertex 3\n") && text.contains("element face 1\n"));
-        assert_eq!(b.len() - end, 3 * 12 + 13);
     }
 }
