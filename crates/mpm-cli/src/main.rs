@@ -124,7 +124,9 @@ enum Command {
     /// opened by Blender, ParaView, MeshLab) with per-vertex velocity vx vy vz and speed (m/s,
     /// averaged from the particles around each vertex) and material (an index; the file's
     /// comments name each). Prints each file with its vertex and triangle counts and enclosed
-    /// volume.
+    /// volume. Of a 2D run, the outline of the fluid by marching squares at the same density
+    /// level, drawn in DIR/surface/outline_NNNNNN.svg, with its segment count and enclosed
+    /// area.
     ///
     /// Sizes are checked before anything is allocated: the radius, the kernel's reach and the
     /// cells no larger than the scene's domain, at most 2e9 marching-cubes cells and 2048
@@ -255,14 +257,24 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                 trust,
             })?;
             for f in files {
-                mpm_cli::outln!(
-                    "{}: {} particles, {} vertices, {} triangles, volume {:.6e} m^3",
-                    f.path.display(),
-                    f.particles,
-                    f.vertices,
-                    f.triangles,
-                    f.volume
-                );
+                if f.dim == 2 {
+                    mpm_cli::outln!(
+                        "{}: {} particles, {} segments, area {:.6e} m^2",
+                        f.path.display(),
+                        f.particles,
+                        f.segments,
+                        f.volume
+                    );
+                } else {
+                    mpm_cli::outln!(
+                        "{}: {} particles, {} vertices, {} triangles, volume {:.6e} m^3",
+                        f.path.display(),
+                        f.particles,
+                        f.vertices,
+                        f.triangles,
+                        f.volume
+                    );
+                }
             }
             Ok(())
         }

@@ -233,12 +233,7 @@ fn the_surface_of_a_particle_block_encloses_its_volume() {
     assert!(err.abs() < 0.02, "volume {v} vs 0.008");
     // The printed volume is the mesh's (up to the f32 vertices of the file).
     let line = printed.lines().next().expect("line");
-    let printed_v: f64 = line
-        .split("volume ")
-        .nth(1)
-        .and_then(|s| s.split(' ').next())
-        .and_then(|s| s.parse().ok())
-        .expect("volume in the output");
+    let printed_v = number_after(line, "volume ");
     assert!((printed_v / v - 1.0).abs() < 1e-4, "{line}");
     // Every frame's surface lies in the domain, and the volume stays within 2 % (water is
     // nearly incompressible over 20 steps).
@@ -370,16 +365,36 @@ fn bad_surface_input_exits_2() {
     let o = cli(&["surface", solid.to_str().expect("utf-8")]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("no fluid material"), "{}", stderr(&o));
-    // 2D snapshots have no surface mesh.
-    let d3 = tmpdir("surface-2d");
-    let flat = run(&d3, WATER_2D);
-    let o = cli(&["surface", flat.to_str().expect("utf-8")]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("3D"), "{}", stderr(&o));
 }
 
-/// The particle radius (m) and particle count `mpm-cli surface` recorded in a PLY file's
-/// comment and printed line.
+#[test]
+fn a_2d_run_gets_an_svg_outline_enclosing_its_area() {
+    let d = tmpdir("surface-2d");
+    let flat = run(&d, WATER_2D);
+    let printed = surface(&flat, &["--frame", "0"], "1");
+    let svg = flat.join("surface/outline_000000.svg");
+    let text = std::fs::read_to_string(&svg).expect("svg");
+    assert!(
+        text.starts_with("<svg xmlns=\"http://www.w3.org/2000/svg\""),
+        "{text}"
+    );
+    assert!(text.contains("<path d=\"M") && text.trim_end().ends_with("</svg>"));
+    // Frame 0 is the water block as sampled: 0.2 × 0.2 m.
+    let area = number_after(&printed, "area ");
+    eprintln!("2D water block: outline area {area:.6e} m^2");
+    assert!((area / 0.04 - 1.0).abs() < 0.02, "{printed}");
+}
+
+/// The number that follows the first `marker` in `text` (as `mpm-cli surface` prints them).
+fn number_after(text: &str, marker: &str) -> f64 {
+    text.split(marker)
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no number after {marker:?} in {text}"))
+}
+
+/// The particle radius (m) `mpm-cli surface` recorded in a PLY file's comment.
 fn radius_of(ply: &Path) -> f64 {
     let bytes = std::fs::read(ply).expect("ply");
     let text = String::from_utf8_lossy(&bytes[..bytes.len().min(1024)]);
@@ -426,12 +441,7 @@ fn every_shipped_3d_fluid_scene_gets_a_surface_without_options() {
         let mesh = read_ply(&ply);
         assert!(mesh.closed_and_oriented(), "{name}: {printed}");
         // The enclosed volume against the particles' own: N (2r)³, r half the spacing.
-        let n: f64 = printed
-            .split(": ")
-            .nth(1)
-            .and_then(|s| s.split(' ').next())
-            .and_then(|s| s.parse().ok())
-            .expect("particle count");
+        let n = number_after(&printed, ": ");
         let own = n * (2.0 * radius_of(&ply)).powi(3);
         let ratio = mesh.volume() / own;
         eprintln!("{name}: {n} particles, surface volume / particle volume {ratio:.3}");

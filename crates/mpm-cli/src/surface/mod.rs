@@ -3,7 +3,8 @@
 //! sampled on a marching-cubes grid and contoured at a fraction of the rest density), written
 //! as binary PLY files `DIR/surface/surface_NNNNNN.ply` that Blender, ParaView and MeshLab
 //! open, with each vertex's velocity, speed and material taken from the particles around it
-//! (`ply`).
+//! (`ply`). Of a 2D run, the fluid's outline at the same density level by marching squares,
+//! as an SVG drawing `DIR/surface/outline_NNNNNN.svg` (`outline`).
 //!
 //! Parameters are relative to the particle radius `r`, by default half the median particle
 //! spacing (`volume0^(1/3) / 2`, so that splashsurf's particle volume `(2r)³` is the
@@ -13,6 +14,7 @@
 //! reconstructed on one thread (frames run in parallel), so the files do not depend on the
 //! number of threads.
 
+mod outline;
 mod ply;
 
 use crate::error::CliError;
@@ -62,20 +64,25 @@ impl Default for SurfaceOptions {
     }
 }
 
-/// One mesh written.
+/// One mesh (3D) or outline (2D) written.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceFile {
-    /// The PLY file.
+    /// The PLY (3D) or SVG (2D) file.
     pub path: PathBuf,
     /// Snapshot frame number.
     pub frame: u64,
+    /// Dimension of the run.
+    pub dim: usize,
     /// Particles that entered the reconstruction.
     pub particles: usize,
-    /// Vertices of the mesh.
+    /// Vertices of the mesh (3D).
     pub vertices: usize,
-    /// Triangles of the mesh.
+    /// Triangles of the mesh (3D).
     pub triangles: usize,
-    /// Volume enclosed by the mesh (m³, by the divergence theorem).
+    /// Segments of the outline (2D).
+    pub segments: usize,
+    /// Volume enclosed by the mesh (m³, by the divergence theorem), or area enclosed by the
+    /// outline (m², 2D).
     pub volume: f64,
 }
 
@@ -117,43 +124,65 @@ pub fn surface(opts: &SurfaceOptions) -> Result<Vec<SurfaceFile>, CliError> {
                     "frame {frame} has no particles of the chosen materials"
                 )));
             }
-            let mesh = reconstruct(&f, opts).map_err(bad)?;
-            if mesh.1.is_empty() {
-                return Err(bad(format!(
+            let empty = || {
+                bad(format!(
                     "frame {frame}: the surface is empty: no region of the {} particles \
                      reaches --iso {} of the rest density (give a smaller --iso or a larger \
                      --smoothing-length)",
                     f.positions.len(),
                     opts.iso
-                )));
-            }
-            let volume = enclosed_volume(&mesh.0, &mesh.1);
-            let ply = out_dir.join(format!("surface_{frame:06}.ply"));
-            let vertices: Vec<Vector3<f64>> = mesh.0.iter().map(|v| Vector3::from(*v)).collect();
-            let particles = ply::Particles {
-                positions: &f.positions,
-                velocities: f.velocities.as_deref(),
-                materials: &f.materials,
-                support: 2.0 * opts.smoothing_length * f.radius,
+                ))
             };
-            let attributes = ply::attributes(&particles, &vertices);
-            let mut comments = vec![format!(
+            let title = format!(
                 "mpm-cli surface: frame {frame}, t = {} s, radius {} m",
                 f.time, f.radius
-            )];
-            comments.extend(
-                (f.names.iter().enumerate()).map(|(k, name)| format!("material {k} = {name}")),
             );
-            let bytes = ply::ply_bytes(&vertices, &attributes, &mesh.1, &comments);
-            std::fs::write(&ply, bytes).map_err(|e| {
-                CliError::Other(format!("error: cannot write {}: {e}", ply.display()))
+            let (name, bytes, counts, volume) = if f.dim == 2 {
+                let (support, cell) = sizes(&f, opts).map_err(bad)?;
+                let segments = outline::outline(&f.positions, f.radius, support, cell, opts.iso)
+                    .map_err(bad)?;
+                if segments.is_empty() {
+                    return Err(empty());
+                }
+                let svg = outline::svg(&segments, f.lo.xy(), f.hi.xy(), &title);
+                let area = outline::enclosed_area(&segments);
+                let name = format!("outline_{frame:06}.svg");
+                (name, svg.into_bytes(), (0, 0, segments.len()), area)
+            } else {
+                let mesh = reconstruct(&f, opts).map_err(bad)?;
+                if mesh.1.is_empty() {
+                    return Err(empty());
+                }
+                let vertices: Vec<Vector3<f64>> =
+                    mesh.0.iter().map(|v| Vector3::from(*v)).collect();
+                let particles = ply::Particles {
+                    positions: &f.positions,
+                    velocities: f.velocities.as_deref(),
+                    materials: &f.materials,
+                    support: 2.0 * opts.smoothing_length * f.radius,
+                };
+                let attributes = ply::attributes(&particles, &vertices);
+                let mut comments = vec![title];
+                comments.extend(
+                    (f.names.iter().enumerate()).map(|(k, name)| format!("material {k} = {name}")),
+                );
+                let bytes = ply::ply_bytes(&vertices, &attributes, &mesh.1, &comments);
+                let counts = (mesh.0.len(), mesh.1.len(), 0);
+                let volume = enclosed_volume(&mesh.0, &mesh.1);
+                (format!("surface_{frame:06}.ply"), bytes, counts, volume)
+            };
+            let path = out_dir.join(name);
+            std::fs::write(&path, bytes).map_err(|e| {
+                CliError::Other(format!("error: cannot write {}: {e}", path.display()))
             })?;
             Ok(SurfaceFile {
-                path: ply,
+                path,
                 frame: *frame,
+                dim: f.dim,
                 particles: f.positions.len(),
-                vertices: mesh.0.len(),
-                triangles: mesh.1.len(),
+                vertices: counts.0,
+                triangles: counts.1,
+                segments: counts.2,
                 volume,
             })
         })
@@ -202,17 +231,23 @@ struct FluidFrame {
     time: f64,
     /// Largest edge of the scene's grid box (m).
     domain: f64,
+    /// Dimension of the run.
+    dim: usize,
+    /// Lower corner of the scene's grid box (m; 0 beyond the run's dimension).
+    lo: Vector3<f64>,
+    /// Upper corner of the scene's grid box (m).
+    hi: Vector3<f64>,
 }
 
 /// The chosen materials' particles in snapshot `path`, with the particle radius, the time and
 /// the size of the scene's domain.
 fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, String> {
     let s = read_file(path, opts.trust).map_err(|e| format!("{e}{}", hint(&e)))?;
-    if s.header.dim != 3 {
+    let dim = s.header.dim as usize;
+    if !(2..=3).contains(&dim) {
         return Err(format!(
-            "{}: surfaces need 3D snapshots; this run is {}D",
-            path.display(),
-            s.header.dim
+            "{}: surfaces need 2D or 3D snapshots; this run is {dim}D",
+            path.display()
         ));
     }
     let stored = scene::parse(Path::new("scene.toml"), &s.header.scene)
@@ -258,12 +293,13 @@ fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, Str
         _ => return Err(format!("{}: no field `material`", path.display())),
     };
     let kept: Vec<usize> = (0..n).filter(|&p| chosen.contains(&material[p])).collect();
+    // 2D positions and velocities get a zero third component.
     let row = |values: &[f64], p: usize| {
-        Vector3::new(values[3 * p], values[3 * p + 1], values[3 * p + 2])
+        Vector3::from_fn(|a, _| if a < dim { values[dim * p + a] } else { 0.0 })
     };
     let positions = kept.iter().map(|&p| row(x, p)).collect();
     let velocities = match s.field("v").map(|f| &f.data) {
-        Some(Data::F64 { values, shape }) if shape[..] == [n, 3] => {
+        Some(Data::F64 { values, shape }) if shape[..] == [n, dim] => {
             Some(kept.iter().map(|&p| row(values, p)).collect())
         }
         _ => None,
@@ -271,7 +307,7 @@ fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, Str
     let radius = match opts.radius {
         Some(r) => r,
         None => {
-            0.5 * particle_spacing(&s, 3)
+            0.5 * particle_spacing(&s, dim)
                 .or_else(|| sampled_spacing(&stored.scene, &chosen))
                 .ok_or_else(|| {
                     format!(
@@ -283,7 +319,7 @@ fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, Str
         }
     };
     let grid = &stored.scene.grid;
-    let domain = (0..3)
+    let domain = (0..dim)
         .map(|a| grid.max[a] - grid.min[a])
         .fold(0.0, f64::max);
     Ok(FluidFrame {
@@ -294,6 +330,9 @@ fn fluid_particles(path: &Path, opts: &SurfaceOptions) -> Result<FluidFrame, Str
         radius,
         time: s.header.time,
         domain,
+        dim,
+        lo: Vector3::from_fn(|a, _| if a < dim { grid.min[a] } else { 0.0 }),
+        hi: Vector3::from_fn(|a, _| if a < dim { grid.max[a] } else { 0.0 }),
     })
 }
 
@@ -318,23 +357,7 @@ type Mesh = (Vec<[f64; 3]>, Vec<[usize; 3]>);
 /// The surface of a frame's particles.
 fn reconstruct(f: &FluidFrame, opts: &SurfaceOptions) -> Result<Mesh, String> {
     let (positions, radius) = (&f.positions, f.radius);
-    let cube = opts.cube_size * radius;
-    let support = 2.0 * opts.smoothing_length * radius;
-    for (what, len) in [
-        ("the particle radius (--radius)", radius),
-        (
-            "the kernel's reach (--radius × 2 --smoothing-length)",
-            support,
-        ),
-        ("the marching-cubes cell (--radius × --cube-size)", cube),
-    ] {
-        if len > f.domain {
-            return Err(format!(
-                "{what} is {len:.3e} m, larger than the scene's domain ({:.3e} m)",
-                f.domain
-            ));
-        }
-    }
+    let (support, cube) = sizes(f, opts)?;
     let (mut lo, mut hi) = (positions[0], positions[0]);
     for p in positions {
         lo = lo.inf(p);
@@ -374,6 +397,29 @@ fn reconstruct(f: &FluidFrame, opts: &SurfaceOptions) -> Result<Mesh, String> {
         }
     }
     Ok((vertices, triangles))
+}
+
+/// The kernel's reach and the grid's cell size (m) for a frame, each checked against the
+/// scene's domain, as is the particle radius.
+fn sizes(f: &FluidFrame, opts: &SurfaceOptions) -> Result<(f64, f64), String> {
+    let cube = opts.cube_size * f.radius;
+    let support = 2.0 * opts.smoothing_length * f.radius;
+    for (what, len) in [
+        ("the particle radius (--radius)", f.radius),
+        (
+            "the kernel's reach (--radius × 2 --smoothing-length)",
+            support,
+        ),
+        ("the marching-cubes cell (--radius × --cube-size)", cube),
+    ] {
+        if len > f.domain {
+            return Err(format!(
+                "{what} is {len:.3e} m, larger than the scene's domain ({:.3e} m)",
+                f.domain
+            ));
+        }
+    }
+    Ok((support, cube))
 }
 
 /// The mean number of particles in the 3³ cells of edge `support` (m) around each particle,
