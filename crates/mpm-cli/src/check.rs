@@ -3,14 +3,15 @@
 
 use crate::build::{build, AnyBuilt, Built};
 use crate::error::CliError;
+use crate::scene::overrides::Override;
 use crate::scene::{self, Duration, Interval, LoadedScene, TimeStepDef};
 use mpm_core::{Dim, DimOps, Material};
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// The text printed by `mpm-cli check`.
-pub fn check(path: &Path) -> Result<String, CliError> {
-    let scene = scene::load(path)?;
+/// The text printed by `mpm-cli check` (with `--set` overrides applied to the scene).
+pub fn check(path: &Path, overrides: &[Override]) -> Result<String, CliError> {
+    let scene = scene::load_with(path, overrides)?;
     let built = build(&scene)?;
     let mut o = String::new();
     let _ = writeln!(

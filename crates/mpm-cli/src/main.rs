@@ -5,6 +5,7 @@
 use clap::{Parser, Subcommand};
 use mpm_cli::render::RenderOptions;
 use mpm_cli::run::RunOptions;
+use mpm_cli::scene::overrides::Override;
 use mpm_cli::scene::Precision;
 use mpm_cli::surface::SurfaceOptions;
 use mpm_cli::CliError;
@@ -73,11 +74,20 @@ enum Command {
         /// summary.json is written as always).
         #[arg(long)]
         quiet: bool,
+        /// Override a scene key: KEY=VALUE with KEY a dotted path as `check` prints it
+        /// (simulation.end_time, bodies[1].velocity, grid.min[0]) and VALUE a TOML value
+        /// (0.5, [0.0, -9.81], "water"; other text is a string). Repeatable, applied in order;
+        /// checked like the file, and stored in every snapshot's scene text.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
     },
     /// Check a scene: print it with defaults filled in, and the stage plan.
     Check {
         /// Scene file (TOML).
         scene: PathBuf,
+        /// Override a scene key, as for `run` (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
     },
     /// Print the header and fields of a snapshot or checkpoint.
     Info {
@@ -177,6 +187,13 @@ enum Command {
     },
 }
 
+/// The `--set` arguments parsed; a malformed one is bad input.
+fn overrides(args: &[String]) -> Result<Vec<Override>, CliError> {
+    args.iter()
+        .map(|a| Override::parse(a).map_err(|e| CliError::BadInput(format!("error: {e}"))))
+        .collect()
+}
+
 fn dispatch(cli: Cli) -> Result<(), CliError> {
     let trust = if cli.unchecked {
         mpm_io::Verify::Unchecked
@@ -192,6 +209,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             precision,
             compression,
             quiet,
+            set,
         } => mpm_cli::run::run(&RunOptions {
             scene,
             out,
@@ -202,9 +220,10 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             quiet,
             stop: Some(mpm_cli::run::stop_on_signals()?),
             trust,
+            overrides: overrides(&set)?,
         }),
-        Command::Check { scene } => {
-            mpm_cli::out!("{}", mpm_cli::check::check(&scene)?);
+        Command::Check { scene, set } => {
+            mpm_cli::out!("{}", mpm_cli::check::check(&scene, &overrides(&set)?)?);
             Ok(())
         }
         Command::Info { file, scene } => {

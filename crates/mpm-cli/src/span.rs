@@ -105,7 +105,8 @@ fn path_matches(pattern: &str, path: &str) -> bool {
     rest.is_empty()
 }
 
-fn join(prefix: &str, key: &str) -> String {
+/// `prefix.key`, or `key` at the root.
+pub(crate) fn join(prefix: &str, key: &str) -> String {
     if prefix.is_empty() {
         key.to_string()
     } else {

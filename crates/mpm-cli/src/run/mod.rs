@@ -55,6 +55,8 @@ pub struct RunOptions {
     /// Whether `.h5` files without a checksum block are read (`--unchecked`; unsafe, see
     /// [`crate::files`]).
     pub trust: mpm_io::Verify,
+    /// `--set KEY=VALUE` overrides of scene keys, applied in order.
+    pub overrides: Vec<scene::overrides::Override>,
 }
 
 /// Code version written into every file.
@@ -113,7 +115,7 @@ pub fn run(opts: &RunOptions) -> Result<(), CliError> {
             .build_global()
             .map_err(|e| CliError::Other(format!("error: cannot set up {n} threads: {e}")))?;
     }
-    let mut scene = scene::load(&opts.scene)?;
+    let mut scene = scene::load_with(&opts.scene, &opts.overrides)?;
     let output = &mut scene.scene.output;
     output.precision = opts.precision.unwrap_or(output.precision);
     output.compression = opts.compression.unwrap_or(output.compression);

@@ -31,6 +31,7 @@ pub mod boundaries;
 pub mod grid;
 pub mod materials;
 pub mod output;
+pub mod overrides;
 pub mod simulation;
 
 #[cfg(test)]
@@ -251,12 +252,23 @@ impl LoadedScene {
 /// regular file or is larger than [`MAX_SCENE_BYTES`], and every problem in it are bad input
 /// (exit code 2).
 pub fn load(path: &Path) -> Result<LoadedScene, CliError> {
+    load_with(path, &[])
+}
+
+/// [`load`] with `--set` overrides applied to the text first (see [`overrides`]); the
+/// resolved scene's text is the overridden one.
+pub fn load_with(path: &Path, overrides: &[overrides::Override]) -> Result<LoadedScene, CliError> {
     let text = read_text(path, MAX_SCENE_BYTES).map_err(|e| {
         CliError::BadInput(format!(
             "error: cannot read scene file {}: {e}",
             path.display()
         ))
     })?;
+    let text = if overrides.is_empty() {
+        text
+    } else {
+        overrides::apply(&text, overrides).map_err(|e| CliError::BadInput(format!("error: {e}")))?
+    };
     parse(path, &text).map_err(CliError::from)
 }
 
