@@ -17,6 +17,7 @@ pub mod solvers;
 pub mod span;
 pub mod state;
 pub mod surface;
+pub mod sweep;
 
 pub use error::{CliError, SceneError};
 

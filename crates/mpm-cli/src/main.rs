@@ -176,6 +176,22 @@ enum Command {
         #[arg(long, default_value_t = 0.6, allow_negative_numbers = true)]
         iso: f64,
     },
+    /// Run a scene once per combination of values: `--set a=1,2,3 --set b=x,y` makes six runs
+    /// (the first key varies slowest) into OUT/run_NNN, and OUT/sweep.csv with each run's values,
+    /// exit code, status, steps, time, wall time, particles, mean dt and energy drift from its
+    /// summary.json. Failed runs are recorded and the sweep goes on; it then exits with the
+    /// first failure's code.
+    Sweep {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// KEY=V1,V2,… (repeatable): the values KEY takes, TOML values separated by commas
+        /// outside brackets and quotes.
+        #[arg(long = "set", value_name = "KEY=V1,V2,…", required = true)]
+        set: Vec<String>,
+        /// Output directory of the sweep (default: the scene's [output] directory + "_sweep").
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Reads FILE once without verifying it and writes what it read to COPY with checksums,
     /// for a parent `mpm-cli --unchecked` (which survives this process crashing).
     #[command(hide = true, name = "probe")]
@@ -295,6 +311,16 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                     );
                 }
             }
+            Ok(())
+        }
+        Command::Sweep { scene, set, out } => {
+            let csv = mpm_cli::sweep::sweep(&mpm_cli::sweep::SweepOptions {
+                scene,
+                sets: set,
+                out,
+                stop: Some(mpm_cli::run::stop_on_signals()?),
+            })?;
+            mpm_cli::outln!("{}", csv.display());
             Ok(())
         }
         Command::Probe { file, copy } => mpm_cli::files::probe(&file, &copy),
