@@ -189,7 +189,7 @@ fn copy_in_child(
         .map_err(fs_err)?;
     let limit = timeout.unwrap_or_else(|| probe_timeout(bytes));
     let start = Instant::now();
-    // Polled from 0.1 ms up to every 5 ms: reading a small file takes about 10 ms.
+    // Polled from 0.1 ms up to every 1 ms: reading a small file takes about 10 ms.
     let mut pause = Duration::from_micros(100);
     let status = loop {
         if let Some(status) = child.try_wait().map_err(fs_err)? {
@@ -206,7 +206,7 @@ fn copy_in_child(
             )));
         }
         std::thread::sleep(pause);
-        pause = (pause * 2).min(Duration::from_millis(5));
+        pause = (pause * 2).min(Duration::from_millis(1));
     };
     let (mut said, mut complaint) = (String::new(), String::new());
     if let Some(mut out) = child.stdout.take() {
