@@ -31,17 +31,10 @@ impl Override {
             .split_once('=')
             .ok_or_else(|| bad("expected KEY=VALUE"))?;
         let key = key.trim();
-        let segments = segments(key).ok_or_else(|| {
-            bad("KEY must be a dotted path of names with array indices, e.g. bodies[0].velocity")
-        })?;
-        if matches!(segments.last(), Some(Segment::Index(_))) {
-            // An array element is set as a whole array or through its own keys.
-            if !matches!(
-                segments.get(segments.len().wrapping_sub(2)),
-                Some(Segment::Name(_))
-            ) {
-                return Err(bad("KEY must name a key"));
-            }
+        if segments(key).is_none() {
+            return Err(bad(
+                "KEY must be a dotted path of names with array indices, e.g. bodies[0].velocity",
+            ));
         }
         let raw = raw.trim();
         let value = if toml::from_str::<toml::Table>(&format!("v = {raw}")).is_ok() {
