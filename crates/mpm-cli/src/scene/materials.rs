@@ -300,14 +300,19 @@ impl<'a> MaterialNames<'a> {
     }
 }
 
-/// The index of material `name`, or an error at `key` listing the materials.
+/// The index of material `name`, or an error at `key` listing the materials (one lookup; many
+/// go through [`MaterialNames`]).
 pub(crate) fn material_index(
     c: &mut Checker<'_>,
     key: &str,
     name: &str,
     materials: &[MaterialDef],
 ) -> Option<usize> {
-    MaterialNames::new(materials).find(c, key, name)
+    let found = materials.iter().position(|m| m.name == name);
+    if found.is_none() {
+        unknown_material(c, key, name, materials);
+    }
+    found
 }
 
 /// How many material names an "unknown material" error lists.
