@@ -140,10 +140,7 @@ where
         let (lo, hi) = bounds(&spec);
         for (index, x) in particles.x.iter().enumerate() {
             if (0..D).any(|a| !(x[a] >= lo[a] && x[a] <= hi[a])) {
-                return Err(SetupError::ParticleOutsideGrid {
-                    index,
-                    position: format!("{:?}", x.as_slice()),
-                });
+                return Err(SetupError::outside(index, x, &(lo, hi), "the grid box"));
             }
         }
         if let Some((index, &m)) =
@@ -178,7 +175,7 @@ where
 }
 
 /// The lower and upper corners (m) of the box of `spec`.
-fn bounds<const D: usize>(spec: &GridSpec<D>) -> (Vector<D>, Vector<D>) {
+pub(crate) fn bounds<const D: usize>(spec: &GridSpec<D>) -> (Vector<D>, Vector<D>) {
     let hi = Vector::<D>::from_fn(|a, _| spec.origin[a] + spec.dx * (spec.size[a] - 1) as Real);
     (spec.origin, hi)
 }

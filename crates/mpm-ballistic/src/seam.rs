@@ -101,6 +101,14 @@ where
         self.spec.dx / vmax.max(Real::MIN_POSITIVE)
     }
 
+    fn region(&self) -> mpm_core::Region<D> {
+        let walls = crate::bounds(&self.spec);
+        mpm_core::Region {
+            interior: walls,
+            walls: Some(walls),
+        }
+    }
+
     fn dt_bound(&self) -> DtBound {
         DtBound {
             description: "dx / max |v|",

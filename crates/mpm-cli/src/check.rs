@@ -4,8 +4,8 @@
 use crate::build::{build, AnyBuilt, Built};
 use crate::error::CliError;
 use crate::scene::overrides::Override;
-use crate::scene::{self, Duration, Interval, LoadedScene, TimeStepDef};
-use mpm_core::{Dim, DimOps, Material};
+use crate::scene::{self, Duration, FluidDef, Interval, LoadedScene, ModelDef, TimeStepDef};
+use mpm_core::{Dim, DimOps, Material, Region, Vector};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -49,6 +49,7 @@ where
         s.spec().origin.as_slice(),
         sc.grid.kernel
     );
+    region(o, &s.region());
     let _ = writeln!(o, "particles:  {}", s.particles().len());
     let phases = sc.phase_count();
     for (body, def) in b.bodies.iter().zip(&sc.bodies) {
@@ -79,7 +80,12 @@ where
                     solid.wave_speed(1.0, &Default::default())
                 )
             }
-            Material::Fluid(f) => format!("fluid, sound speed {:.4} m/s", f.sound_speed(1.0)),
+            Material::Fluid(f) => match &def.model {
+                ModelDef::Tait(FluidDef {
+                    bulk_modulus: None, ..
+                }) => format!("fluid, incompressible, viscosity {} Pa·s", f.viscosity),
+                _ => format!("fluid, sound speed {:.4} m/s", f.sound_speed(1.0)),
+            },
         };
         let _ = writeln!(o, "material {k}: \"{}\": {detail}", def.name);
     }
@@ -165,5 +171,40 @@ where
     }
     for w in &b.warnings {
         let _ = writeln!(o, "warning: {w}");
+    }
+}
+
+/// The `walls:` and `interior:` lines: the wall planes per axis and the box particles must lie
+/// in (m).
+fn region<const D: usize>(o: &mut String, r: &Region<D>) {
+    let axes = ["x", "y", "z"];
+    let walls = match &r.walls {
+        Some((lo, hi)) => (0..D)
+            .map(|a| format!("{} = {} and {} m", axes[a], metres(lo[a]), metres(hi[a])))
+            .collect::<Vec<_>>()
+            .join(", "),
+        None => "none (the grid ends there)".to_string(),
+    };
+    let _ = writeln!(o, "walls:      {walls}");
+    let corner = |v: &Vector<D>| {
+        let parts: Vec<String> = v.iter().map(|x| metres(*x)).collect();
+        format!("[{}]", parts.join(", "))
+    };
+    let _ = writeln!(
+        o,
+        "interior:   bodies must lie in {} .. {} m",
+        corner(&r.interior.0),
+        corner(&r.interior.1)
+    );
+}
+
+/// A length (m) to 6 decimals, without trailing zeros.
+fn metres(x: f64) -> String {
+    let t = format!("{x:.6}");
+    let t = t.trim_end_matches('0').trim_end_matches('.');
+    if t == "-0" {
+        "0".to_string()
+    } else {
+        t.to_string()
     }
 }

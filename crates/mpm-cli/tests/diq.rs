@@ -232,3 +232,70 @@ fn solid_tables_are_checked_in_diq_scenes() {
         assert!(stderr(&o).contains(message), "case {i}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn check_prints_the_walls_and_where_bodies_may_lie_and_diq_water_has_no_sound_speed() {
+    let d = tmpdir("diq-region");
+    // DIQ: slip walls one node in from each face of the 0.5 m box (dx = 1/32 m); particles must
+    // lie between them.
+    let o = cli(&["check", &write(&d, "diq.toml", DIQ_2D).to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("walls:      x = 0.03125 and 0.46875 m, y = 0.03125 and 0.46875 m"),
+        "{text}"
+    );
+    assert!(
+        text.contains("interior:   bodies must lie in [0.03125, 0.03125] .. [0.46875, 0.46875] m"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\"water\": fluid, incompressible, viscosity 0 Pa·s"),
+        "{text}"
+    );
+    assert!(
+        !text.contains("sound speed") && !text.contains("bulk_modulus"),
+        "{text}"
+    );
+    // The explicit solver: three wall node layers (the innermost is the plane, two nodes in),
+    // and the quadratic kernel's margin of half a cell.
+    let o = cli(&["check", &write(&d, "wc.toml", WATER_2D).to_string_lossy()]);
+    let text = stdout(&o);
+    assert!(
+        text.contains("walls:      x = 0.0625 and 0.4375 m, y = 0.0625 and 0.4375 m"),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "interior:   bodies must lie in [0.015625, 0.015625] .. [0.484375, 0.484375] m"
+        ),
+        "{text}"
+    );
+    assert!(text.contains("fluid, sound speed"), "{text}");
+    // A DIQ body that reaches below the walls is refused with the box it must lie in.
+    let low = DIQ_2D.replace("min = [0.03125, 0.03125]", "min = [0.01, 0.03125]");
+    assert_ne!(low, DIQ_2D);
+    let o = cli(&["check", &write(&d, "low.toml", &low).to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "lies outside the box inside the walls [0.0312, 0.0312] .. [0.4688, 0.4688] m"
+        ),
+        "{}",
+        stderr(&o)
+    );
+    // An equation of state for DIQ water is refused at its key.
+    let eos = DIQ_2D.replace(
+        "density = 1000.0\n",
+        "density = 1000.0\nbulk_modulus = 2e6\n",
+    );
+    assert_ne!(eos, DIQ_2D);
+    expect_bad(
+        &d,
+        "eos.toml",
+        &eos,
+        "check",
+        "materials[0].bulk_modulus",
+        Some("bulk_modulus"),
+    );
+}

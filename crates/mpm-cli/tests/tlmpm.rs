@@ -192,12 +192,22 @@ fn newmark_keeps_the_first_swing_and_summary_holds_newton_residual_histories() {
     // first swing, Newmark keeps it at the undamped ~1.94 δ (mode 1 carries 0.97 δ).
     let scene = CANTILEVER.replace("end_time = 1.3", "end_time = 0.6");
     let delta = 40.0 / (3.0 * 1e7 * 0.1f64.powi(3) / 12.0);
-    let (euler, _) = first_peak_and_summary(&tmpdir("tlmpm-newmark-be"), &scene);
-    let newmark_scene = scene.replace(
-        "[tlmpm]\ncontact = false",
-        "[tlmpm]\ncontact = false\ntime_scheme = \"newmark\"",
-    );
-    assert_ne!(newmark_scene, scene);
+    let (euler, euler_summary) = first_peak_and_summary(&tmpdir("tlmpm-newmark-be"), &scene);
+    // Residual histories are written only on request; the counts and extremes always.
+    let newton = &euler_summary["solves"]["newton"];
+    assert!(newton.get("residual_histories").is_none(), "{newton}");
+    assert!(newton["iterations"]["total"].as_u64().unwrap() >= 241);
+    assert!(newton["final_residual"]["max"].as_f64().unwrap() > 0.0);
+    let newmark_scene = scene
+        .replace(
+            "[tlmpm]\ncontact = false",
+            "[tlmpm]\ncontact = false\ntime_scheme = \"newmark\"",
+        )
+        .replace(
+            "fields = [\"x\"]",
+            "fields = [\"x\"]\nresidual_histories = true",
+        );
+    assert_eq!(newmark_scene.matches("residual_histories").count(), 1);
     let (newmark, summary) = first_peak_and_summary(&tmpdir("tlmpm-newmark-nm"), &newmark_scene);
     println!(
         "first peak / static deflection: backward Euler {:.4}, Newmark {:.4}",

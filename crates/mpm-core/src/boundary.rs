@@ -95,6 +95,19 @@ pub struct DomainWalls {
     pub treatment: WallTreatment,
 }
 
+impl DomainWalls {
+    /// The wall planes (m), lower and upper per axis, of grid `spec`: the innermost wall node
+    /// layers, `thickness − 1` nodes in from each face.
+    pub fn planes<const D: usize>(&self, spec: &GridSpec<D>) -> (Vector<D>, Vector<D>) {
+        let inset = self.thickness.saturating_sub(1) as Real;
+        let lo = Vector::<D>::from_fn(|a, _| spec.origin[a] + inset * spec.dx);
+        let hi = Vector::<D>::from_fn(|a, _| {
+            spec.origin[a] + ((spec.size[a] - 1) as Real - inset) * spec.dx
+        });
+        (lo, hi)
+    }
+}
+
 /// Analytic collider shapes; the collider occupies the inside (signed distance ≤ 0).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "shape", rename_all = "snake_case")]

@@ -1,6 +1,6 @@
 //! Typed errors shared by the solvers.
 
-use crate::math::Real;
+use crate::math::{Real, Vector};
 use std::fmt;
 use thiserror::Error;
 
@@ -170,13 +170,15 @@ pub enum SetupError {
         /// Why it is rejected.
         reason: &'static str,
     },
-    /// A particle's stencil does not fit in the grid.
-    #[error("particle {index} at {position} lies outside the grid's interior")]
+    /// A particle lies outside the box where the solver takes particles.
+    #[error("particle {index} at {position} lies outside {interior}")]
     ParticleOutsideGrid {
         /// Particle index.
         index: usize,
-        /// Position, formatted.
+        /// Position (m), formatted.
         position: String,
+        /// The box particles must lie in (m), named and formatted (see [`SetupError::outside`]).
+        interior: String,
     },
     /// A particle names a material that does not exist.
     #[error("particle {index} refers to material {material}, but only {count} exist")]
@@ -207,4 +209,26 @@ pub enum SetupError {
         /// Why it is rejected.
         reason: String,
     },
+}
+
+impl SetupError {
+    /// Particle `index` at `x` (m) lies outside the box `lo .. hi` (m) where the solver takes
+    /// particles; `what` names that box (e.g. "the grid's interior").
+    pub fn outside<const D: usize>(
+        index: usize,
+        x: &Vector<D>,
+        (lo, hi): &(Vector<D>, Vector<D>),
+        what: &str,
+    ) -> Self {
+        use crate::sampling::vector_text;
+        SetupError::ParticleOutsideGrid {
+            index,
+            position: vector_text(x.as_slice()),
+            interior: format!(
+                "{what} {} .. {} m",
+                vector_text(lo.as_slice()),
+                vector_text(hi.as_slice())
+            ),
+        }
+    }
 }

@@ -66,8 +66,8 @@ mod test_util;
 pub use columns::{Column, ColumnData};
 pub use diagnostics::Diagnostics;
 pub use solver::{
-    on_pool, reached, retry_halving, run_until_with, Failure, Monitor, PlannedStage, RunInfo,
-    SolveInfo, Solver, SolverState, StagePlan, StageTimes, StepError, StepInfo, StepStart,
+    on_pool, reached, retry_halving, run_until_with, Failure, Monitor, PlannedStage, Region,
+    RunInfo, SolveInfo, Solver, SolverState, StagePlan, StageTimes, StepError, StepInfo, StepStart,
 };
 pub use step_control::StepControl;
 pub use timestep::{OnInstability, TimeStepPolicy};

@@ -14,7 +14,7 @@ use crate::diagnostics::Diagnostics;
 use crate::error::{Instability, Location, Stage, Violation};
 use crate::grid::GridSpec;
 use crate::material::Material;
-use crate::math::{Dim, DimOps, Real};
+use crate::math::{Dim, DimOps, Real, Vector};
 use crate::particles::Particles;
 use crate::timestep::OnInstability;
 use std::fmt;
@@ -431,6 +431,17 @@ pub struct Monitor {
     pub value: Real,
 }
 
+/// Where a solver's particles may be (m): the box they must lie in, and the wall planes of the
+/// grid box when it has walls.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Region<const D: usize> {
+    /// Lower and upper corners of the box particles must lie in (m): where the solver's
+    /// interpolation stencil fits in the grid, or the box inside the walls.
+    pub interior: (Vector<D>, Vector<D>),
+    /// Lower and upper wall plane per axis (m), when the grid box has walls.
+    pub walls: Option<(Vector<D>, Vector<D>)>,
+}
+
 /// One solver, as the CLI, the validation crate and the benchmarks drive it. `D` is the
 /// dimension (2 or 3). `Send`, so that a driver can run it on a pool thread ([`on_pool`]).
 pub trait Solver<const D: usize>: fmt::Debug + Send
@@ -460,6 +471,9 @@ where
 
     /// What limits the time step.
     fn dt_bound(&self) -> DtBound;
+
+    /// Where the particles may be: the interior and the walls.
+    fn region(&self) -> Region<D>;
 
     /// Mass, momenta and energies.
     fn diagnostics(&self) -> Diagnostics<D>;

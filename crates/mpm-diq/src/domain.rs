@@ -2,7 +2,7 @@
 //! cell's corners, and the boundary quadrature points of walls and colliders (diq-mpm Eq. 30).
 
 use mpm_core::boundary::{Collider, ColliderShape, ContactKind};
-use mpm_core::{GridSpec, Real, Vector};
+use mpm_core::{GridSpec, Real, Region, Vector};
 
 /// A quadrature point of the wall operator `B` (Eq. 30): position, the fluid's outward unit
 /// normal there, its area (m² in 3D, m in 2D) and the boundary's normal velocity `v_b·n` (m/s).
@@ -68,6 +68,24 @@ impl<const D: usize> Domain<D> {
             cell_dims: std::array::from_fn(|a| spec.size[a].saturating_sub(1)),
             walls,
             colliders,
+        }
+    }
+
+    /// Where particles may be: the box between the wall planes, which are walls only when the
+    /// scene has walls.
+    pub fn region(&self) -> Region<D> {
+        Region {
+            interior: (self.lo(), self.hi()),
+            walls: self.walls.then(|| (self.lo(), self.hi())),
+        }
+    }
+
+    /// What the box particles must lie in is called in messages.
+    pub fn interior_name(&self) -> &'static str {
+        if self.walls {
+            "the box inside the walls"
+        } else {
+            "the grid's interior"
         }
     }
 

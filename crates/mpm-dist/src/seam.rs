@@ -56,6 +56,10 @@ where
         Solver::dt_bound(self.solver())
     }
 
+    fn region(&self) -> mpm_core::Region<D> {
+        Solver::region(self.solver())
+    }
+
     /// The sums over all ranks' particles (collective; see the module docs).
     fn diagnostics(&self) -> Diagnostics<D> {
         let mut d = self.solver().diagnostics();

@@ -77,10 +77,12 @@ pub(crate) fn validate<const D: usize>(
             });
         }
         if !range.contains(spec, &particles.x[p]) {
-            return Err(SetupError::ParticleOutsideGrid {
-                index: p,
-                position: format!("{:?}", particles.x[p].as_slice()),
-            });
+            return Err(SetupError::outside(
+                p,
+                &particles.x[p],
+                &mpm_core::sampling::interior(spec, params.kernel),
+                "the grid's interior",
+            ));
         }
     }
     Ok(())

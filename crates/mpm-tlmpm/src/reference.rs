@@ -57,10 +57,12 @@ impl<const D: usize> ReferenceConfig<D> {
         let range = spec.stencil_range(kernel);
         for (p, x) in positions.iter().enumerate() {
             if !range.contains(&spec, x) {
-                return Err(SetupError::ParticleOutsideGrid {
-                    index: p,
-                    position: format!("{:?}", x.as_slice()),
-                });
+                return Err(SetupError::outside(
+                    p,
+                    x,
+                    &mpm_core::sampling::interior(&spec, kernel),
+                    "the grid's interior",
+                ));
             }
         }
         let mirrors = mirror_planes(&spec, kernel, planes, positions)?;

@@ -256,7 +256,8 @@ struct Runner<'a, const D: usize> {
     retries: u64,
     /// Iterations and residuals of the solver's iterative solves over this run's steps.
     solves: BTreeMap<&'static str, SolveStats>,
-    /// Per-step residual histories of the solves that report them, bounded (see [`ResidualLog`]).
+    /// Per-step residual histories of the solves that report them, bounded (see [`ResidualLog`]),
+    /// when the scene asks for them (`output.residual_histories`).
     residual_logs: BTreeMap<&'static str, ResidualLog>,
     first_step: u64,
     first_time: f64,
@@ -376,13 +377,16 @@ where
             } else {
                 format!("{n} particles")
             };
+            let threads = match rayon::current_num_threads() {
+                1 => "1 thread".to_string(),
+                t => format!("{t} threads"),
+            };
             crate::errln!(
-                "{}: {}D, {n}, grid {:?} nodes (dx = {} m), {} threads, output in {}",
+                "{}: {}D, {n}, grid {:?} nodes (dx = {} m), {threads}, output in {}",
                 self.scene.path.display(),
                 D,
                 self.solver.spec().size,
                 self.solver.spec().dx,
-                rayon::current_num_threads(),
                 self.out.display()
             );
         }
@@ -524,7 +528,8 @@ where
                 .or_default()
                 .add(s.iterations, s.residual);
         }
-        for (name, r) in &info.residual_histories {
+        let keep = self.scene.scene.output.residual_histories;
+        for (name, r) in info.residual_histories.iter().filter(|_| keep) {
             self.residual_logs
                 .entry(name)
                 .or_default()

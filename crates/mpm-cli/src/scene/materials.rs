@@ -2,6 +2,7 @@
 //! `mpm-core` material each entry stands for.
 
 use super::Checker;
+use crate::solvers::SolverKind;
 use mpm_core::material::{
     DruckerPrager, ElasticModel, FluidMaterial, Lame, Plasticity, Snow, SolidMaterial, Tait,
 };
@@ -164,15 +165,18 @@ pub enum PlasticityDef {
     },
 }
 
-/// Parameters of a Tait fluid.
+/// Parameters of a fluid: a weakly compressible Tait fluid, or an incompressible one (for a
+/// solver whose fluids are incompressible), which has no equation of state.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FluidDef {
     /// Rest density (kg/m^D).
     pub density: f64,
-    /// Bulk modulus (Pa).
-    pub bulk_modulus: f64,
-    /// Tait exponent γ.
-    pub gamma: f64,
+    /// Bulk modulus (Pa); `None` for an incompressible fluid.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bulk_modulus: Option<f64>,
+    /// Tait exponent γ; `None` for an incompressible fluid.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gamma: Option<f64>,
     /// Dynamic viscosity (Pa·s).
     pub viscosity: f64,
 }
@@ -216,11 +220,13 @@ impl ModelDef {
             ModelDef::Hencky(s) => solid(s, ElasticModel::Hencky),
             ModelDef::LinearElastic(s) => solid(s, ElasticModel::LinearElastic),
             ModelDef::StableNeoHookean(s) => solid(s, ElasticModel::StableNeoHookean),
+            // An incompressible fluid's solver never reads the equation of state; K = 0 gives it
+            // none (zero pressure at any density) should anything else evaluate it.
             ModelDef::Tait(f) => Material::Fluid(FluidMaterial {
                 density: f.density,
                 eos: Tait {
-                    bulk_modulus: f.bulk_modulus,
-                    gamma: f.gamma,
+                    bulk_modulus: f.bulk_modulus.unwrap_or(0.0),
+                    gamma: f.gamma.unwrap_or(7.0),
                 },
                 viscosity: f.viscosity,
             }),
@@ -237,6 +243,7 @@ pub(super) fn resolve_materials(
     c: &mut Checker<'_>,
     raw: &[RawMaterial],
     d: usize,
+    solver: SolverKind,
 ) -> Vec<MaterialDef> {
     if raw.len() > MAX_MATERIALS {
         c.err(
@@ -251,7 +258,7 @@ pub(super) fn resolve_materials(
     let materials: Vec<MaterialDef> = raw
         .iter()
         .enumerate()
-        .map(|(i, m)| resolve_material(c, i, m, d))
+        .map(|(i, m)| resolve_material(c, i, m, d, solver))
         .collect();
     if materials.is_empty() {
         c.err(
@@ -406,7 +413,13 @@ fn preset_values(p: Preset) -> RawMaterial {
     m
 }
 
-fn resolve_material(c: &mut Checker<'_>, i: usize, m: &RawMaterial, d: usize) -> MaterialDef {
+fn resolve_material(
+    c: &mut Checker<'_>,
+    i: usize,
+    m: &RawMaterial,
+    d: usize,
+    solver: SolverKind,
+) -> MaterialDef {
     let k = |name: &str| format!("materials[{i}].{name}");
     if m.name.trim().is_empty() {
         c.err(&k("name"), "must not be empty");
@@ -473,22 +486,34 @@ fn resolve_material(c: &mut Checker<'_>, i: usize, m: &RawMaterial, d: usize) ->
         for (key, present) in solid_keys {
             c.not_applicable(&k(key), present, "to a fluid (model = \"tait\")");
         }
-        let bulk = match pick(m.bulk_modulus, |p| p.bulk_modulus) {
-            Some(b) => c.positive(&k("bulk_modulus"), b),
-            None => {
-                c.err(
-                    &k("bulk_modulus"),
-                    "missing key: bulk_modulus (Pa) is required",
-                );
-                1.0
+        let (bulk, gamma) = if crate::solvers::incompressible_fluid(solver) {
+            let why = format!(
+                "to a fluid of solver \"{}\", which is incompressible (no equation of state)",
+                solver.name()
+            );
+            for (key, present) in &fluid_keys[..2] {
+                c.not_applicable(&k(key), *present, &why);
             }
+            (None, None)
+        } else {
+            let bulk = match pick(m.bulk_modulus, |p| p.bulk_modulus) {
+                Some(b) => c.positive(&k("bulk_modulus"), b),
+                None => {
+                    c.err(
+                        &k("bulk_modulus"),
+                        "missing key: bulk_modulus (Pa) is required",
+                    );
+                    1.0
+                }
+            };
+            let gamma = c.num(
+                &k("gamma"),
+                pick(m.gamma, |p| p.gamma).unwrap_or(7.0),
+                |g| g > 1.0,
+                "must be a finite number > 1",
+            );
+            (Some(bulk), Some(gamma))
         };
-        let gamma = c.num(
-            &k("gamma"),
-            pick(m.gamma, |p| p.gamma).unwrap_or(7.0),
-            |g| g > 1.0,
-            "must be a finite number > 1",
-        );
         let viscosity = c.non_negative(
             &k("viscosity"),
             pick(m.viscosity, |p| p.viscosity).unwrap_or(0.0),

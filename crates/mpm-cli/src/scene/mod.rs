@@ -161,6 +161,9 @@ pub(crate) trait SolverTables: Sized {
     /// Whether the solver's grid stores only the node blocks material reaches (so `[grid]` is
     /// limited by the domain's blocks, not its nodes).
     const SPARSE_GRID: bool = false;
+    /// Whether the solver's fluids are incompressible, so that they take no equation of state
+    /// (`bulk_modulus` and `gamma` of a fluid material are refused).
+    const INCOMPRESSIBLE_FLUID: bool = false;
 }
 
 /// The resolved common tables, as a solver's scene module sees them.
@@ -499,7 +502,7 @@ fn resolve(
     let d = sim.dim;
     let sparse = crate::solvers::sparse_grid(sim.solver);
     let grid = grid::resolve_grid(c, &raw.grid, d, sparse);
-    let materials = materials::resolve_materials(c, &raw.materials, d);
+    let materials = materials::resolve_materials(c, &raw.materials, d, sim.solver);
     let base = path.parent().unwrap_or(Path::new("."));
     let mut bodies = bodies::resolve_bodies(c, &raw.bodies, d, &materials, base);
     let boundaries = boundaries::resolve_boundaries(c, &raw.boundaries, d);

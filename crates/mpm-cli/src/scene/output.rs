@@ -15,6 +15,7 @@ pub(crate) struct RawOutput {
     fields: Option<Vec<String>>,
     precision: Option<String>,
     compression: Option<u8>,
+    residual_histories: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -66,6 +67,10 @@ pub struct OutputDef {
     pub precision: Precision,
     /// gzip level 1–9 of snapshot datasets (with HDF5's shuffle filter, in chunks); 0: none.
     pub compression: u8,
+    /// Whether `summary.json` keeps the per-step residual norms of the iterative solves (the
+    /// iteration counts and the extreme residuals are always there).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub residual_histories: bool,
 }
 
 impl OutputDef {
@@ -206,6 +211,7 @@ pub(super) fn resolve_output(
         fields,
         precision,
         compression,
+        residual_histories: o.and_then(|o| o.residual_histories).unwrap_or(false),
     }
 }
 

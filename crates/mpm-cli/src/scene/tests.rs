@@ -165,6 +165,39 @@ fn solver_diq_needs_linear_b_splines_and_unknown_solvers_name_the_available_ones
 }
 
 #[test]
+fn diq_fluids_take_no_equation_of_state() {
+    let water = |extra: &str| {
+        scene("solver = \"diq\"", "", "")
+            .replace("kernel = \"quadratic\"", "")
+            .replace("dx = 0.05\n", "dx = 0.05\nkernel = \"linear\"\n")
+            .replace("preset = \"jelly\"", &format!("preset = \"water\"{extra}"))
+    };
+    // The water preset's bulk modulus and γ are left out: the resolved scene has none.
+    let s = parsed(&water(""));
+    let toml = s.scene.to_toml();
+    assert!(
+        !toml.contains("bulk_modulus") && !toml.contains("gamma"),
+        "{toml}"
+    );
+    assert!(toml.contains("viscosity = 0.001"), "{toml}");
+    // Giving them is an error at each key.
+    let text = water("\nbulk_modulus = 2e6\ngamma = 7.0");
+    let p = problems(&text);
+    for key in ["bulk_modulus", "gamma"] {
+        assert!(
+            p.iter()
+                .any(|(k, line, m)| k == &format!("materials[0].{key}")
+                    && *line == line_of(&text, key)
+                    && m.contains("incompressible")),
+            "{key}: {p:?}"
+        );
+    }
+    // The explicit solver's water keeps them.
+    let s = parsed(&scene("", "", "").replace("preset = \"jelly\"", "preset = \"water\""));
+    assert!(s.scene.to_toml().contains("bulk_modulus = 2000000.0"));
+}
+
+#[test]
 fn an_unknown_table_lists_every_table_a_scene_may_have() {
     let text = scene("", "", "[couplingz]\nkind = \"full\"\n");
     let p = problems(&text);

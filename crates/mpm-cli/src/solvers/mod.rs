@@ -27,6 +27,8 @@ pub(crate) struct Owned {
     pub fields: &'static [&'static str],
     /// Whether its grid is sparse ([`SolverTables::SPARSE_GRID`]).
     pub sparse_grid: bool,
+    /// Whether its fluids are incompressible ([`SolverTables::INCOMPRESSIBLE_FLUID`]).
+    pub incompressible_fluid: bool,
 }
 
 impl Owned {
@@ -39,6 +41,13 @@ impl Owned {
 /// Whether solver `kind` stores only the grid blocks material reaches.
 pub fn sparse_grid(kind: SolverKind) -> bool {
     OWNED.iter().any(|o| o.kind == kind && o.sparse_grid)
+}
+
+/// Whether the fluids of solver `kind` are incompressible (they take no equation of state).
+pub fn incompressible_fluid(kind: SolverKind) -> bool {
+    OWNED
+        .iter()
+        .any(|o| o.kind == kind && o.incompressible_fluid)
 }
 
 /// Whether solver `kind` can run a scene (it is not only a reserved name).
@@ -110,6 +119,7 @@ macro_rules! solvers {
             keys: <$module::scene::$part as SolverTables>::KEYS,
             fields: <$module::scene::$part as SolverTables>::FIELDS,
             sparse_grid: <$module::scene::$part as SolverTables>::SPARSE_GRID,
+            incompressible_fluid: <$module::scene::$part as SolverTables>::INCOMPRESSIBLE_FLUID,
         },)+];
 
         impl SolverScene {

@@ -267,8 +267,6 @@ kernel = "linear"
 name = "water"
 model = "tait"
 density = 1000.0
-bulk_modulus = 2e6
-gamma = 7.0
 
 [[bodies]]
 name = "column"
@@ -312,8 +310,6 @@ kernel = "linear"
 name = "water"
 model = "tait"
 density = 1000.0
-bulk_modulus = 2e6
-gamma = 7.0
 
 [[materials]]
 name = "block"

@@ -8,7 +8,7 @@ use super::DiqCoupled;
 use mpm_core::columns::{self, Column};
 use mpm_core::solver::{on_pool, DtBound, FieldInfo, RestoreError, StageTime};
 use mpm_core::{
-    Diagnostics, Dim, DimOps, GridSpec, Material, Matrix, Monitor, Particles, Real, Solver,
+    Diagnostics, Dim, DimOps, GridSpec, Material, Matrix, Monitor, Particles, Real, Region, Solver,
     SolverState, StagePlan, StepError, StepInfo, Vector,
 };
 use mpm_tlmpm::TlmpmState;
@@ -47,6 +47,10 @@ where
 
     fn dt_bound(&self) -> DtBound {
         crate::fluid::displacement_bound_doc()
+    }
+
+    fn region(&self) -> Region<D> {
+        Solver::region(&self.fluid)
     }
 
     fn diagnostics(&self) -> Diagnostics<D> {

@@ -231,10 +231,12 @@ where
         }
         for i in 0..particles.len() {
             if domain.locate(&particles.x[i]).is_none() {
-                return Err(SetupError::ParticleOutsideGrid {
-                    index: i,
-                    position: format!("{:?}", particles.x[i].as_slice()),
-                });
+                return Err(SetupError::outside(
+                    i,
+                    &particles.x[i],
+                    &(domain.lo(), domain.hi()),
+                    domain.interior_name(),
+                ));
             }
             if let Some(k) = domain.colliders.iter().position(|c| {
                 c.shape

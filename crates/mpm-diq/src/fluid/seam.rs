@@ -5,8 +5,8 @@ use super::DiqFluid;
 use mpm_core::columns::{self, Column};
 use mpm_core::solver::{on_pool, DtBound, FieldInfo, RestoreError, StageTime};
 use mpm_core::{
-    Diagnostics, Dim, DimOps, GridSpec, Material, Monitor, Particles, Real, Solver, SolverState,
-    StagePlan, StepError, StepInfo,
+    Diagnostics, Dim, DimOps, GridSpec, Material, Monitor, Particles, Real, Region, Solver,
+    SolverState, StagePlan, StepError, StepInfo,
 };
 
 impl<const D: usize> Solver<D> for DiqFluid<D>
@@ -43,6 +43,10 @@ where
 
     fn dt_bound(&self) -> DtBound {
         crate::fluid::displacement_bound_doc()
+    }
+
+    fn region(&self) -> Region<D> {
+        self.domain.region()
     }
 
     fn diagnostics(&self) -> Diagnostics<D> {

@@ -4,8 +4,8 @@
 use super::ExplicitSolver;
 use mpm_core::solver::{DtBound, RestoreError, StageTime};
 use mpm_core::{
-    columns, on_pool, Diagnostics, Dim, DimOps, GridSpec, Material, Particles, Real, Solver,
-    SolverState, StagePlan, StepError, StepInfo,
+    columns, on_pool, Diagnostics, Dim, DimOps, GridSpec, Material, Particles, Real, Region,
+    Solver, SolverState, StagePlan, StepError, StepInfo,
 };
 
 /// The explicit solver behind the solver seam; its particles are its whole state.
@@ -50,6 +50,13 @@ where
 
     fn diagnostics(&self) -> Diagnostics<D> {
         ExplicitSolver::diagnostics(self)
+    }
+
+    fn region(&self) -> Region<D> {
+        Region {
+            interior: mpm_core::sampling::interior(&self.spec, self.params.kernel),
+            walls: self.boundaries.walls.map(|w| w.planes(&self.spec)),
+        }
     }
 
     fn plan(&self) -> StagePlan {

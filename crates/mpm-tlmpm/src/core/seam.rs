@@ -86,6 +86,19 @@ macro_rules! solver_seam {
                 }
             }
 
+            fn region(&self) -> mpm_core::Region<D> {
+                let spec = self.core.reference.spec();
+                let obstacles = self.core.params.contact.iter().flat_map(|c| &c.obstacles);
+                let walls = obstacles.into_iter().find_map(|o| match o {
+                    crate::Obstacle::Walls { min, max } => Some((*min, *max)),
+                    _ => None,
+                });
+                mpm_core::Region {
+                    interior: mpm_core::sampling::interior(spec, self.core.params.kernel),
+                    walls,
+                }
+            }
+
             fn diagnostics(&self) -> Diagnostics<D> {
                 self.core.diagnostics(|| $ty::stable_dt(self))
             }

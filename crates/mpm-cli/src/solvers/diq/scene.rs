@@ -103,6 +103,7 @@ impl SolverTables for DiqScene {
     const KEYS: &'static [&'static str] = &[];
     const PRINTED_LAST: bool = true;
     const FIELDS: &'static [&'static str] = mpm_diq::fields::ALL;
+    const INCOMPRESSIBLE_FLUID: bool = true;
     type Raw = RawDiqTables;
 
     fn resolve(c: &mut Checker<'_>, raw: RawDiqTables, common: Common<'_>) -> Self {

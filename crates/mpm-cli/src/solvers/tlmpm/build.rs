@@ -344,6 +344,7 @@ mod tests {
                 SetupError::ParticleOutsideGrid {
                     index: 5,
                     position: "[0.9, 0.9]".to_string(),
+                    interior: "the grid's interior [0.1, 0.1] .. [0.8, 0.8] m".to_string(),
                 },
                 "bodies[1]",
                 line("[[bodies]]", 1),
