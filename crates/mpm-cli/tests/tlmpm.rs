@@ -235,7 +235,8 @@ fn newmark_keeps_the_first_swing_and_summary_holds_newton_residual_histories() {
     assert_eq!((numbers[0], numbers[99]), (1, 100));
     assert_eq!((numbers[100], numbers[199]), (n - 99, n));
     // Each history starts at the initial residual and ends within Newton's tolerance
-    // (abs 1e-10 N + rel 1e-8, or the round-off floor), one entry per iteration.
+    // (1e-10 N + 1e-8 of the largest force that acts, or the round-off floor), one entry per
+    // iteration.
     let max_iterations = summary["solves"]["newton"]["iterations"]["max_per_step"]
         .as_u64()
         .unwrap();

@@ -37,7 +37,7 @@ use crate::assembly::{assemble, hessian_pattern};
 use crate::contact::ContactStats;
 use crate::core::{split_law, step_info, Core, Failure, NewtonTimes, TlmpmState};
 use crate::error::StepError;
-use crate::newton::{minimize, Indefinite, NewtonInfo, NewtonWork, Objective};
+use crate::newton::{minimize, Forces, Indefinite, NewtonInfo, NewtonWork, Objective};
 use crate::params::{ImplicitParams, LinearSolver, TimeScheme, TlmpmParams};
 use crate::potential::{deformation, internal_force, tensor_len, Potential};
 use crate::reference::{Constraints, ReferenceConfig};
@@ -68,7 +68,7 @@ struct ObjectiveWork<const D: usize> {
     stress: Vec<Matrix<D>>,
     stress_scale: Vec<Real>,
     particle: Vec<Real>,
-    magnitude: Vec<Real>,
+    magnitude: Vec<[Real; 4]>,
     tensors: Vec<Real>,
     sparse: Option<SparseSystem>,
     jacobi: Jacobi<Vector<D>>,
@@ -84,6 +84,8 @@ struct ObjectiveWork<const D: usize> {
 #[derive(Debug, Default)]
 struct Workspace<const D: usize> {
     target: Vec<Vector<D>>,
+    /// The alternative initial guess `Δt v̂` (m), constraints applied.
+    coast: Vec<Vector<D>>,
     /// Residual `∇E` (N) at the state of the last `ImplicitTlmpm::linearize`.
     #[cfg(feature = "bench")]
     probe_residual: Vec<Vector<D>>,
@@ -411,6 +413,7 @@ where
         external,
         displacement,
         adaptive,
+        grid_velocity,
         ..
     } = core;
     let (law, def_grad) = split_law(models, particles, adaptive.as_ref());
@@ -429,8 +432,24 @@ where
         times,
         deformed: None,
     };
-    if problem.energy(displacement).is_none() {
-        // The predictor inverts an element: start from rest on the free components.
+    // Newton starts from the scheme's predictor or, when it has the lower incremental potential,
+    // from the motion at the current velocities (`Δt v̂`): the predictor leaves out the internal
+    // forces, so under a load they already balance it overshoots by `Δt² f^ext/m` per step.
+    let predicted = problem.energy(displacement);
+    if warm.is_none() {
+        ws.coast.clear();
+        ws.coast.extend(
+            (grid_velocity.iter().enumerate())
+                .map(|(i, v)| constraints.displacement(i, v * dt, dt)),
+        );
+        if let Some(coast) = problem.energy(&ws.coast) {
+            if predicted.is_none_or(|p| coast.0 < p.0) {
+                displacement.clone_from(&ws.coast);
+            }
+        }
+    }
+    if predicted.is_none() && problem.energy(displacement).is_none() {
+        // Neither start is valid (an inverted element): start from rest on the free components.
         for (i, u) in displacement.iter_mut().enumerate() {
             *u = constraints.displacement(i, Vector::<D>::zeros(), dt);
         }
@@ -552,7 +571,7 @@ where
         e
     }
 
-    fn gradient(&mut self, u: &[Vector<D>], out: &mut [Vector<D>]) -> Real {
+    fn gradient(&mut self, u: &[Vector<D>], out: &mut [Vector<D>]) -> Forces {
         let t = Instant::now();
         self.update_deformation(u);
         let n = self.ws.def_grad.len();
@@ -564,15 +583,15 @@ where
         self.pot
             .law
             .stress_scales(&self.ws.def_grad, &mut self.ws.stress_scale);
-        self.ws.magnitude.resize(u.len(), 0.0);
-        let scale = self.pot.gradient(
+        self.ws.magnitude.resize(u.len(), [0.0; 4]);
+        let forces = self.pot.gradient(
             u,
             (&self.ws.stress, &self.ws.stress_scale),
             out,
             &mut self.ws.magnitude,
         );
         self.times.gradient += t.elapsed();
-        scale
+        forces
     }
 
     fn direction(

@@ -20,7 +20,8 @@ pub struct NewtonInfo {
     pub iterations: u32,
     /// Residual norms `‖∇E‖₂` (N): the initial guess first, then one per iteration.
     pub residuals: Vec<Real>,
-    /// Tolerance the last residual met (N): `max(abs_tol + rel_tol · r₀, roundoff · scale)`.
+    /// Tolerance the last residual met (N): `max(abs_tol + rel_tol · f, roundoff · s)` with the
+    /// force scale `f` and the rounding scale `s` of the last iterate ([`NewtonParams`]).
     pub tolerance: Real,
     /// Line-search step halvings over all iterations.
     pub halvings: u32,
@@ -53,6 +54,35 @@ pub fn fitted_order(residuals: &[Real]) -> Option<Real> {
     (sxx > 0.0).then(|| sxy / sxx)
 }
 
+/// The sizes (N) of the forces that make up a residual `∇E = f_inertial − f_int − f_ext`, as
+/// 2-norms over the free components of the nodes, and the rounding scale of its evaluation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Forces {
+    /// `‖Σ |terms|‖₂` (N): the magnitude of every term before cancellation, which bounds the
+    /// rounding error of the residual.
+    pub rounding: Real,
+    /// `‖f_inertial‖₂ = ‖M (u − û) c/Δt²‖₂` (N).
+    pub inertial: Real,
+    /// `‖f_int‖₂` (N).
+    pub internal: Real,
+    /// `‖f_ext‖₂` (N).
+    pub external: Real,
+}
+
+impl Forces {
+    /// The force scale the residual is measured against (N): the largest of the inertial,
+    /// internal and external forces.
+    pub fn scale(&self) -> Real {
+        self.inertial.max(self.internal).max(self.external)
+    }
+
+    /// The residual norm (N) below which a solve counts as converged:
+    /// `max(abs_tol + rel_tol · scale, roundoff · rounding)`.
+    pub fn tolerance(&self, params: &NewtonParams) -> Real {
+        (params.abs_tol + params.rel_tol * self.scale()).max(params.roundoff * self.rounding)
+    }
+}
+
 /// The tangent was not positive definite.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Indefinite;
@@ -61,8 +91,8 @@ pub(crate) struct Indefinite;
 pub(crate) trait Objective<const D: usize> {
     /// `E(u)` (J) and the magnitude scale of its terms (J), `None` when not finite.
     fn energy(&mut self, u: &[Vector<D>]) -> Option<(Real, Real)>;
-    /// `∇E(u)` (N) into `out`, zero on prescribed components; returns the force scale (N).
-    fn gradient(&mut self, u: &[Vector<D>], out: &mut [Vector<D>]) -> Real;
+    /// `∇E(u)` (N) into `out`, zero on prescribed components; returns the sizes of its forces.
+    fn gradient(&mut self, u: &[Vector<D>], out: &mut [Vector<D>]) -> Forces;
     /// Solves `H(u) d = −r`, zero on prescribed components, with the SPD-projected tangent when
     /// `project`; in full precision when `exact`, else possibly with a single-precision
     /// factorisation ([`NewtonParams::single_precision`]). Returns the linear iterations, or
@@ -112,10 +142,9 @@ pub(crate) fn minimize<const D: usize>(
     let Some(mut energy) = obj.energy(u) else {
         return Err(NewtonError::NonFiniteStart);
     };
-    let scale = obj.gradient(u, &mut w.r);
+    let mut tolerance = obj.gradient(u, &mut w.r).tolerance(params);
     let mut residual = dot(&w.r, &w.r).sqrt();
     let initial = residual;
-    let tolerance = (params.abs_tol + params.rel_tol * initial).max(params.roundoff * scale);
     info.tolerance = tolerance;
     info.residuals.push(residual);
     let ls = params.line_search;
@@ -147,7 +176,7 @@ pub(crate) fn minimize<const D: usize>(
             });
         }
         let chorded = accepted.is_some();
-        let (e, have_gradient) = match accepted {
+        let (e, trial_forces) = match accepted {
             Some(a) => a,
             None => {
                 let mut project = params.projection == SpdProjection::Always;
@@ -186,11 +215,15 @@ pub(crate) fn minimize<const D: usize>(
         };
         std::mem::swap(u, &mut w.trial);
         energy = e;
-        if have_gradient {
-            std::mem::swap(&mut w.r, &mut w.r_trial);
-        } else {
-            obj.gradient(u, &mut w.r);
-        }
+        let forces = match trial_forces {
+            Some(f) => {
+                std::mem::swap(&mut w.r, &mut w.r_trial);
+                f
+            }
+            None => obj.gradient(u, &mut w.r),
+        };
+        tolerance = forces.tolerance(params);
+        info.tolerance = tolerance;
         let previous = residual;
         residual = dot(&w.r, &w.r).sqrt();
         iteration += 1;
@@ -204,8 +237,9 @@ pub(crate) fn minimize<const D: usize>(
 }
 
 /// Capped backtracking (Armijo) line search along `w.d` from `u`, whose energy is `energy` and
-/// residual norm `residual`; the accepted point goes to `w.trial`. Returns its energy and
-/// whether `w.r_trial` holds its gradient, or `None` when every step length failed.
+/// residual norm `residual`; the accepted point goes to `w.trial`. Returns its energy and, when
+/// `w.r_trial` holds its gradient, the sizes of that gradient's forces, or `None` when every
+/// step length failed.
 fn line_search<const D: usize>(
     obj: &mut impl Objective<D>,
     u: &[Vector<D>],
@@ -214,7 +248,7 @@ fn line_search<const D: usize>(
     energy: (Real, Real),
     residual: Real,
     info: &mut NewtonInfo,
-) -> Option<((Real, Real), bool)> {
+) -> Option<((Real, Real), Option<Forces>)> {
     let slope = dot(&w.r, &w.d);
     if slope >= 0.0 {
         return None;
@@ -226,11 +260,11 @@ fn line_search<const D: usize>(
         }
         if let Some(e) = obj.energy(&w.trial) {
             if e.0 <= energy.0 + ls.armijo * alpha * slope {
-                return Some((e, false));
+                return Some((e, None));
             } else if (alpha * slope).abs() <= ENERGY_ROUNDOFF * e.1.max(energy.1) {
-                obj.gradient(&w.trial, &mut w.r_trial);
+                let forces = obj.gradient(&w.trial, &mut w.r_trial);
                 if dot(&w.r_trial, &w.r_trial).sqrt() < residual {
-                    return Some((e, true));
+                    return Some((e, Some(forces)));
                 }
             }
         }
@@ -259,11 +293,14 @@ mod tests {
                 .sum();
             e.is_finite().then_some((e, e))
         }
-        fn gradient(&mut self, u: &[Vector<2>], out: &mut [Vector<2>]) -> Real {
+        fn gradient(&mut self, u: &[Vector<2>], out: &mut [Vector<2>]) -> Forces {
             for ((o, x), c) in out.iter_mut().zip(u).zip(&self.c) {
                 *o = (x - c).map(|y| y.exp() - 1.0);
             }
-            1.0
+            Forces {
+                rounding: 1.0,
+                ..Forces::default()
+            }
         }
         fn direction(
             &mut self,

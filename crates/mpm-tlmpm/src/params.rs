@@ -215,11 +215,17 @@ pub struct NewtonParams {
     pub max_iterations: u32,
     /// Absolute tolerance on the residual norm `‖∇E‖₂` (N).
     pub abs_tol: Real,
-    /// Relative tolerance on `‖∇E‖₂ / ‖∇E(u₀)‖₂` (dimensionless).
+    /// Relative tolerance (dimensionless): a solve has converged once the residual
+    /// `‖∇E‖₂ = ‖f_inertial − f_int − f_ext‖₂` is at most `abs_tol + rel_tol · f` with the force
+    /// scale `f = max(‖f_inertial‖₂, ‖f_int‖₂, ‖f_ext‖₂)` of the same iterate: the forces are
+    /// balanced to this fraction of the largest force that acts. (Measured against the
+    /// forces, not the step's first residual, which a poor initial guess can make a million
+    /// times the load.)
     pub rel_tol: Real,
     /// Round-off floor (dimensionless): the iteration also stops once `‖∇E‖₂` falls below this
-    /// fraction of the force scale `‖Σ |force terms|‖₂` (inertia, external and internal forces
-    /// summed in magnitude per node), where the residual is dominated by rounding errors.
+    /// fraction of the rounding scale `‖Σ |force terms|‖₂` (inertia, external and internal
+    /// forces summed in magnitude per node, the stiffness terms included), where the residual
+    /// is dominated by rounding errors.
     pub roundoff: Real,
     /// Line search.
     pub line_search: LineSearch,

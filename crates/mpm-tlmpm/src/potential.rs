@@ -24,6 +24,7 @@
 //! over the node's particles in ascending order and every scalar sum is serial, so all results are
 //! bitwise independent of the thread count.
 
+use crate::newton::Forces;
 use crate::reference::{Constraints, ReferenceConfig, NONE};
 use mpm_core::material::{ElasticModel, Hyperelastic};
 use mpm_core::{Dim, DimOps, Matrix, Real, Vector};
@@ -226,23 +227,30 @@ where
     }
 
     /// `∇E(u)` (N) into `out`, zero on prescribed components, from the weighted stresses of
-    /// `F(u)`. Returns the force scale `‖Σ |terms|‖₂` (N); `magnitude` holds one value per node.
+    /// `F(u)`. Returns the sizes of the forces in it ([`Forces`]); `magnitude` holds, per node,
+    /// the rounding magnitude of its terms and the squared inertial, internal and external
+    /// forces on its free components.
     pub fn gradient(
         &self,
         u: &[Vector<D>],
         (stress, stress_scale): (&[Matrix<D>], &[Real]),
         out: &mut [Vector<D>],
-        magnitude: &mut [Real],
-    ) -> Real {
+        magnitude: &mut [[Real; 4]],
+    ) -> Forces {
         let masses = self.reference.node_masses();
         out.par_iter_mut()
             .zip(magnitude.par_iter_mut())
             .enumerate()
             .for_each(|(i, (r, mag))| {
                 let scale = masses[i] * self.inertia;
-                let inertia = (u[i] - self.target[i]) * scale;
+                let mask = &self.constraints.mask[i];
+                let inertia = ((u[i] - self.target[i]) * scale).component_mul(mask);
                 let (fint, fmag) = internal_force(self.reference, stress, i);
-                *r = (inertia - fint - self.external[i]).component_mul(&self.constraints.mask[i]);
+                let (fint, fext) = (
+                    fint.component_mul(mask),
+                    self.external[i].component_mul(mask),
+                );
+                *r = inertia - fint - fext;
                 // The inertia term is a difference of nearly equal vectors at small dt: its
                 // rounding error scales with the magnitudes of both, not with their difference;
                 // the internal force's with the stiffness (`Constitutive::stress_scales`).
@@ -255,12 +263,30 @@ where
                             * self.reference.slot(p as usize, k as usize).1.norm()
                     })
                     .sum();
-                *mag = (u[i].norm() + self.target[i].norm()) * scale
+                let rounding = (u[i].norm() + self.target[i].norm()) * scale
                     + self.external[i].norm()
                     + fmag
                     + stiff;
+                *mag = [
+                    rounding * rounding,
+                    inertia.norm_squared(),
+                    fint.norm_squared(),
+                    fext.norm_squared(),
+                ];
             });
-        magnitude.iter().map(|m| m * m).sum::<Real>().sqrt()
+        let mut sums = [0.0; 4];
+        for m in magnitude.iter() {
+            for (s, v) in sums.iter_mut().zip(m) {
+                *s += v;
+            }
+        }
+        let [rounding, inertial, internal, external] = sums.map(Real::sqrt);
+        Forces {
+            rounding,
+            inertial,
+            internal,
+            external,
+        }
     }
 
     /// Per-particle elasticity tensors `V⁰_p ∂P/∂F(F_p)` as `D² × D²` row-major blocks

@@ -135,6 +135,10 @@ pub static REGISTRY: &[&dyn Case] = &[
         run: tlmpm::implicit_second_order::case,
     },
     &FnCase {
+        name: tlmpm::cooks_membrane::NAME,
+        run: tlmpm::cooks_membrane::case,
+    },
+    &FnCase {
         name: diq::hydrostatic_incompressible::NAME,
         run: diq::hydrostatic_incompressible::case,
     },

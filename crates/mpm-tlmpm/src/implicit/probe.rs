@@ -46,7 +46,7 @@ where
         o.stress_scale.resize(np, 0.0);
         pot.law.stress_scales(&o.def_grad, &mut o.stress_scale);
         ws.probe_residual.resize(nn, Vector::<D>::zeros());
-        o.magnitude.resize(nn, 0.0);
+        o.magnitude.resize(nn, [0.0; 4]);
         pot.gradient(
             &core.displacement,
             (&o.stress, &o.stress_scale),

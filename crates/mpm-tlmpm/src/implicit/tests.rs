@@ -142,7 +142,7 @@ where
         // The rounding scales only enter the magnitudes, which this gradient discards.
         let scales = vec![0.0; n];
         self.potential()
-            .gradient(u, (&s, &scales), &mut g, &mut vec![0.0; u.len()]);
+            .gradient(u, (&s, &scales), &mut g, &mut vec![[0.0; 4]; u.len()]);
         g
     }
 

@@ -4,14 +4,16 @@
 //! ([`two_disks_energy`]), a block hanging under extreme gravity
 //! ([`hanging_block_extreme`]), the 1D manufactured solution of the TLMPM literature
 //! ([`mms_1d_tlmpm`]), the work–precision cantilever of implicit against explicit
-//! ([`cantilever_tip_load`]) and backward Euler against Newmark on it
-//! ([`implicit_second_order`]).
+//! ([`cantilever_tip_load`]), backward Euler against Newmark on it
+//! ([`implicit_second_order`]) and Newton's stopping test on Cook's membrane
+//! ([`cooks_membrane`]).
 //!
 //! Run records follow the crate's conventions; `wall_s` is the time spent inside the solvers'
 //! `step` (set-up and error sampling excluded). Units are SI; in 2D volumes are areas (m²) and
 //! densities kg/m².
 
 pub mod cantilever_tip_load;
+pub mod cooks_membrane;
 pub mod hanging_block_extreme;
 pub mod implicit_second_order;
 pub mod mms_1d_tlmpm;
