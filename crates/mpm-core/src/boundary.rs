@@ -96,6 +96,30 @@ pub struct DomainWalls {
 }
 
 impl DomainWalls {
+    /// Walls of `thickness` node layers with `contact` and the default treatment on grid `spec`:
+    /// mirrored ([`WallTreatment::Mirror`]) wherever that applies (slip or sticky contact
+    /// without friction, at least `4 · thickness` nodes along each axis), because only then do
+    /// rest states next to a wall converge under refinement; wall node layers otherwise
+    /// (separating or frictional walls, small grids).
+    pub fn with_default_treatment<const D: usize>(
+        contact: Contact,
+        thickness: usize,
+        spec: &GridSpec<D>,
+    ) -> Self {
+        let mirrored = Self {
+            contact,
+            thickness,
+            treatment: WallTreatment::Mirror,
+        };
+        match crate::mirror::MirrorWalls::new(spec, &mirrored) {
+            Ok(Some(_)) => mirrored,
+            _ => Self {
+                treatment: WallTreatment::Nodes,
+                ..mirrored
+            },
+        }
+    }
+
     /// The wall planes (m), lower and upper per axis, of grid `spec`: the innermost wall node
     /// layers, `thickness − 1` nodes in from each face.
     pub fn planes<const D: usize>(&self, spec: &GridSpec<D>) -> (Vector<D>, Vector<D>) {
@@ -291,6 +315,35 @@ mod tests {
 
     fn v3(x: Real, y: Real, z: Real) -> Vector<3> {
         Vector::<3>::new(x, y, z)
+    }
+
+    /// Walls are mirrored by default where the mirror applies, and keep wall node layers where
+    /// it does not (no reflection for separation or friction; too few nodes for the ghosts);
+    /// the wall planes are the innermost wall layers either way.
+    #[test]
+    fn walls_are_mirrored_by_default_where_the_mirror_applies() {
+        let spec = GridSpec::<2>::new(v2(-0.2, 0.0), 0.1, [20, 12]);
+        let treatment = |c: Contact, t: usize| DomainWalls::with_default_treatment(c, t, &spec);
+        for kind in [ContactKind::Slip, ContactKind::Sticky] {
+            assert_eq!(
+                treatment(contact(kind, 0.0), 3).treatment,
+                WallTreatment::Mirror
+            );
+            assert_eq!(
+                treatment(contact(kind, 0.3), 3).treatment,
+                WallTreatment::Nodes
+            );
+        }
+        let separate = contact(ContactKind::Separate, 0.0);
+        assert_eq!(treatment(separate, 3).treatment, WallTreatment::Nodes);
+        // 12 nodes along y hold the mirrors of thickness 3, not of thickness 4.
+        let slip = contact(ContactKind::Slip, 0.0);
+        assert_eq!(treatment(slip, 4).treatment, WallTreatment::Nodes);
+        let w = treatment(slip, 3);
+        assert_eq!((w.contact, w.thickness), (slip, 3));
+        let (lo, hi) = w.planes(&spec);
+        assert_relative_eq!(lo, v2(0.0, 0.2), epsilon = 1e-12);
+        assert_relative_eq!(hi, v2(1.5, 0.9), epsilon = 1e-12);
     }
 
     fn applied<const D: usize>(

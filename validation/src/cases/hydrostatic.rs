@@ -9,7 +9,7 @@
 
 use super::{assemble, lattice, sweep, RunError};
 use crate::report::{fit_rate, least_squares, progress, CaseResult, Mode, Run};
-use mpm_core::boundary::{Boundaries, WallTreatment};
+use mpm_core::boundary::{Boundaries, DomainWalls, WallTreatment};
 use mpm_core::material::{FluidMaterial, Tait};
 use mpm_core::quasistatic::{Damping, GravityRamp};
 use mpm_core::{
@@ -123,12 +123,13 @@ pub fn build(
         Start::Hydrostatic,
         Damping::default(),
         None,
-        WallTreatment::Nodes,
+        Some(WallTreatment::Nodes),
     )
 }
 
-/// Builds the column with `n` cells per metre, starting in state `start`, with `damping` and
-/// gravity `ramp`. Returns the solver and, for each of the [`ROWS`] lowest lattice rows, the
+/// Builds the column with `n` cells per metre, starting in state `start`, with `damping`,
+/// gravity `ramp` and slip walls of wall `treatment` (`None`: the default,
+/// [`DomainWalls::with_default_treatment`]). Returns the solver and, for each of the [`ROWS`] lowest lattice rows, the
 /// indices of its particles (row 0 is the lowest).
 pub fn build_column(
     cfg: &HydroConfig,
@@ -136,7 +137,7 @@ pub fn build_column(
     start: Start,
     damping: Damping,
     ramp: Option<GravityRamp>,
-    treatment: WallTreatment,
+    treatment: Option<WallTreatment>,
 ) -> Result<(ExplicitSolver<2>, Vec<Vec<usize>>), RunError> {
     let dx = 1.0 / n as Real;
     let cells_x = (cfg.width / dx).round() as usize;
@@ -181,7 +182,9 @@ pub fn build_column(
     particles.jacobian = Some(js);
     let mut boundaries = Boundaries::slip_walls(3);
     if let Some(w) = boundaries.walls.as_mut() {
-        w.treatment = treatment;
+        w.treatment = treatment.unwrap_or(
+            DomainWalls::with_default_treatment(w.contact, w.thickness, &spec).treatment,
+        );
     }
     let params = ExplicitParams {
         step: StepControl {

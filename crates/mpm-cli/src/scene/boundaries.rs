@@ -1,7 +1,10 @@
 //! `[[boundaries]]`: the walls of the grid box and colliders, with their contact rule.
 
+use super::grid::Grid;
 use super::Checker;
-use mpm_core::boundary::{ContactKind, WallTreatment};
+use crate::build::vector;
+use mpm_core::boundary::{Contact, ContactKind, DomainWalls, WallTreatment};
+use mpm_core::GridSpec;
 use serde::{Deserialize, Serialize};
 
 /// Boundary kinds.
@@ -86,15 +89,19 @@ pub enum BoundaryGeometry {
 }
 
 /// Resolves `[[boundaries]]`; the domain walls may be given once.
+/// Resolves `[[boundaries]]` on `grid` for a solver that mirrors walls (`mirrors`: the
+/// explicit solver), which gives walls without `treatment` the default treatment
+/// ([`DomainWalls::with_default_treatment`]); other solvers' walls get wall node layers.
 pub(super) fn resolve_boundaries(
     c: &mut Checker<'_>,
     raw: &[RawBoundary],
-    d: usize,
+    (grid, d): (&Grid, usize),
+    mirrors: bool,
 ) -> Vec<BoundaryDef> {
     let boundaries: Vec<BoundaryDef> = raw
         .iter()
         .enumerate()
-        .map(|(i, b)| resolve_boundary(c, i, b, d))
+        .map(|(i, b)| resolve_boundary(c, i, b, (grid, d), mirrors))
         .collect();
     let walls = boundaries
         .iter()
@@ -131,7 +138,25 @@ pub(crate) fn refuse_mirrored_walls(c: &mut Checker<'_>, boundaries: &[BoundaryD
     }
 }
 
-fn resolve_boundary(c: &mut Checker<'_>, i: usize, b: &RawBoundary, d: usize) -> BoundaryDef {
+/// The default treatment of walls of `thickness` layers with `contact` on `grid`.
+fn default_treatment(contact: Contact, thickness: usize, grid: &Grid, d: usize) -> WallTreatment {
+    fn on<const D: usize>(contact: Contact, thickness: usize, g: &Grid) -> WallTreatment {
+        let spec = GridSpec::<D>::covering(vector::<D>(&g.min), vector::<D>(&g.max), g.dx);
+        DomainWalls::with_default_treatment(contact, thickness, &spec).treatment
+    }
+    match d {
+        2 => on::<2>(contact, thickness, grid),
+        _ => on::<3>(contact, thickness, grid),
+    }
+}
+
+fn resolve_boundary(
+    c: &mut Checker<'_>,
+    i: usize,
+    b: &RawBoundary,
+    (grid, d): (&Grid, usize),
+    mirrors: bool,
+) -> BoundaryDef {
     let k = |name: &str| format!("boundaries[{i}].{name}");
     let kind_name = super::serde_plain(&b.kind);
     let present = [
@@ -166,7 +191,15 @@ fn resolve_boundary(c: &mut Checker<'_>, i: usize, b: &RawBoundary, d: usize) ->
             if !(1..=16).contains(&t) {
                 c.err(&k("thickness"), format!("must lie in 1..=16 (got {t})"));
             }
-            let treatment = b.treatment.unwrap_or_default();
+            let contact = Contact {
+                kind: b.contact.unwrap_or(ContactKind::Slip),
+                friction: b.friction.unwrap_or(0.0),
+            };
+            let treatment = match b.treatment {
+                Some(t) => t,
+                None if mirrors => default_treatment(contact, t as usize, grid, d),
+                None => WallTreatment::Nodes,
+            };
             if treatment == WallTreatment::Mirror {
                 let contact = b.contact.unwrap_or_default();
                 if contact == ContactKind::Separate || b.friction.is_some_and(|f| f != 0.0) {

@@ -164,6 +164,9 @@ pub(crate) trait SolverTables: Sized {
     /// Whether the solver's fluids are incompressible, so that they take no equation of state
     /// (`bulk_modulus` and `gamma` of a fluid material are refused).
     const INCOMPRESSIBLE_FLUID: bool = false;
+    /// Whether the solver mirrors its grid across walls (`treatment = "mirror"`), so that
+    /// walls without a `treatment` get the default one that converges.
+    const MIRRORED_WALLS: bool = false;
 }
 
 /// The resolved common tables, as a solver's scene module sees them.
@@ -505,7 +508,8 @@ fn resolve(
     let materials = materials::resolve_materials(c, &raw.materials, d, sim.solver);
     let base = path.parent().unwrap_or(Path::new("."));
     let mut bodies = bodies::resolve_bodies(c, &raw.bodies, d, &materials, base);
-    let boundaries = boundaries::resolve_boundaries(c, &raw.boundaries, d);
+    let mirrors = crate::solvers::mirrored_walls(sim.solver);
+    let boundaries = boundaries::resolve_boundaries(c, &raw.boundaries, (&grid, d), mirrors);
     reject_other_solvers_keys(c, sim.solver);
     let common = Common {
         simulation: &sim,

@@ -515,6 +515,23 @@ fn mirrored_walls_are_the_explicit_solvers_and_need_a_reflecting_contact() {
     let p = problems(&text);
     assert_eq!(p.len(), 1, "{p:?}");
     assert_eq!(p[0].0, "boundaries[0].treatment");
+    // Without `treatment`, the explicit solver's slip walls are mirrored where the grid holds
+    // the ghosts' mirrors (4 × 3 nodes per axis: 13 on a 0.6 m box, not 11 on 0.5 m) and
+    // separating ones keep wall node layers; TLMPM's walls are penalty obstacles and keep the
+    // node layers.
+    let walls = |text: &str| match parsed(text).scene.boundaries[0].geometry {
+        BoundaryGeometry::Walls { treatment, .. } => treatment,
+        _ => panic!("no walls"),
+    };
+    let wide = |text: String| text.replace("max = [0.5, 0.5]", "max = [0.6, 0.6]");
+    assert_eq!(walls(&wide(scene("", "", ""))), WallTreatment::Mirror);
+    assert_eq!(walls(&scene("", "", "")), WallTreatment::Nodes);
+    let separate = scene("", "", "").replace("contact = \"slip\"", "contact = \"separate\"");
+    assert_eq!(walls(&wide(separate)), WallTreatment::Nodes);
+    assert_eq!(
+        walls(&wide(scene("solver = \"tlmpm\"", "", ""))),
+        WallTreatment::Nodes
+    );
     // An unknown treatment lists the two.
     let text = scene("", "", "").replace(
         "contact = \"slip\"",

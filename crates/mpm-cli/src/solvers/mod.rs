@@ -29,6 +29,8 @@ pub(crate) struct Owned {
     pub sparse_grid: bool,
     /// Whether its fluids are incompressible ([`SolverTables::INCOMPRESSIBLE_FLUID`]).
     pub incompressible_fluid: bool,
+    /// Whether it mirrors walls ([`SolverTables::MIRRORED_WALLS`]).
+    pub mirrored_walls: bool,
 }
 
 impl Owned {
@@ -48,6 +50,11 @@ pub fn incompressible_fluid(kind: SolverKind) -> bool {
     OWNED
         .iter()
         .any(|o| o.kind == kind && o.incompressible_fluid)
+}
+
+/// Whether solver `kind` mirrors its grid across walls.
+pub fn mirrored_walls(kind: SolverKind) -> bool {
+    OWNED.iter().any(|o| o.kind == kind && o.mirrored_walls)
 }
 
 /// Whether solver `kind` can run a scene (it is not only a reserved name).
@@ -120,6 +127,7 @@ macro_rules! solvers {
             fields: <$module::scene::$part as SolverTables>::FIELDS,
             sparse_grid: <$module::scene::$part as SolverTables>::SPARSE_GRID,
             incompressible_fluid: <$module::scene::$part as SolverTables>::INCOMPRESSIBLE_FLUID,
+            mirrored_walls: <$module::scene::$part as SolverTables>::MIRRORED_WALLS,
         },)+];
 
         impl SolverScene {

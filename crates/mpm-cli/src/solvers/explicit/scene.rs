@@ -47,6 +47,7 @@ pub(crate) struct RawExplicit {
 impl SolverTables for ExplicitScene {
     const TABLES: &'static [&'static str] = &["couplings", "porous", "mixing", "dissolution"];
     const SPARSE_GRID: bool = true;
+    const MIRRORED_WALLS: bool = true;
     const KEYS: &'static [&'static str] = &[
         "simulation.volume_update",
         "simulation.initial_volume",
