@@ -125,9 +125,17 @@ enum Command {
         range: Option<Vec<f64>>,
         /// 3D view: xy (x right, y up, from +z; the default), any other pair of axes (right,
         /// then up: yz, zx, yx, zy, xz), or iso (isometric from (1, 1, 1), y up). Pictures are
-        /// named frame_NNNNNN[_FIELD][_VIEW].png after the --color-by and --view given.
+        /// named frame_NNNNNN[_FIELD][_VIEW][_range_MIN_MAX][_NAME].png after the --color-by,
+        /// --view, --range and --name given.
         #[arg(long)]
         view: Option<String>,
+        /// A name for this set of pictures, appended to their file names.
+        #[arg(long)]
+        name: Option<String>,
+        /// Also assemble the rendered frames (with --all) into DIR/render/movie[...].mp4 or
+        /// .gif with ffmpeg, when ffmpeg is installed (otherwise a message says so).
+        #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "mp4")]
+        movie: Option<mpm_cli::render::MovieFormat>,
     },
     /// Reconstruct the fluid's surface of every 3D snapshot (or one, with --frame) as a
     /// triangle mesh with splashsurf, written to DIR/surface/surface_NNNNNN.ply (binary PLY,
@@ -255,8 +263,10 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             only,
             range,
             view,
+            name,
+            movie,
         } => {
-            let files = mpm_cli::render::render(&RenderOptions {
+            let r = mpm_cli::render::render(&RenderOptions {
                 dir,
                 frame,
                 all,
@@ -265,10 +275,15 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
                 only,
                 range: range.map(|r| (r[0], r[1])),
                 view,
+                name,
+                movie,
                 trust,
             })?;
-            for f in files {
+            for f in r.files.iter().chain(&r.movie) {
                 mpm_cli::outln!("{}", f.display());
+            }
+            for line in r.range.iter().chain(&r.notes) {
+                mpm_cli::errln!("{line}");
             }
             Ok(())
         }

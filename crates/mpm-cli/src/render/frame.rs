@@ -8,12 +8,17 @@ use super::{particle_spacing, Frame};
 use crate::font::text_width;
 use crate::scene::{BoundaryDef, BoundaryGeometry};
 
+/// The box between the wall planes: lower and upper corner (m), as 3-vectors.
+pub(super) type WallBox = ([f64; 3], [f64; 3]);
+
+/// Draws frame `f`: the axes, the colliders and wall planes (`walls`: lower and upper corner,
+/// m) in axis views, the particles, the title and the legend or colour bar.
 pub(super) fn draw_frame(
     f: &Frame,
     view: &View,
     dim: usize,
     colour: &Colouring,
-    colliders: &[ColliderView],
+    (colliders, walls): (&[ColliderView], Option<WallBox>),
 ) -> Image {
     let bg = [250, 250, 250];
     let ink = [30, 30, 30];
@@ -31,6 +36,19 @@ pub(super) fn draw_frame(
                     img.set(px, py, [215, 215, 215]);
                 }
             }
+        }
+    }
+    // The wall planes, as a dark outline of the box between them.
+    if let (Projection::Axes { right, up }, Some((lo, hi))) = (view.projection, walls) {
+        let corner = |a: f64, b: f64| view.to_px(&[a, b, 0.0]);
+        let (x0, y0) = corner(lo[right], lo[up]);
+        let (x1, y1) = corner(hi[right], hi[up]);
+        let wall = [90, 90, 90];
+        for d in [-0.5, 0.5] {
+            img.line(x0 + d, y0, x0 + d, y1, wall);
+            img.line(x1 + d, y0, x1 + d, y1, wall);
+            img.line(x0, y0 + d, x1, y0 + d, wall);
+            img.line(x0, y1 + d, x1, y1 + d, wall);
         }
     }
     // Dot radius from the particle spacing.

@@ -8,25 +8,30 @@
 //! any other field on a viridis colour bar labelled with its range (vectors by their length,
 //! `F` by its determinant, other matrices by their Frobenius norm; `speed` is |v|). The default
 //! is `material` when several materials are present, else `speed`; `phase` is categorical too,
-//! and the fractions `phi_eff` and `concentration` use the fixed range [0, 1]; `--range MIN MAX`
-//! sets the range of any continuous field (values outside get the end colours, marked `<` / `>`
-//! on the bar). With `--only`, particles of the other materials are drawn first, in light grey,
-//! and only the chosen materials are coloured (useful when phases overlap). Colliders of the
-//! scene stored in the snapshot are drawn in grey (in 3D axis views, their cross-section through
-//! the collider's centre). Pictures are `render/frame_NNNNNN.png`, with `_FIELD` and `_VIEW`
-//! appended when `--color-by` and `--view` are given.
+//! and the fractions `phi_eff` and `concentration` use the fixed range [0, 1]; other fields run
+//! from the 1st to the 99th percentile of their values, and `--range MIN MAX` sets the range of
+//! any continuous field (values outside get the end colours, marked `<` / `>` on the bar). With
+//! `--only`, particles of the other materials are drawn first, in light grey, and only the
+//! chosen materials are coloured (useful when phases overlap). Colliders of the scene stored in
+//! the snapshot are drawn in grey (in 3D axis views, their cross-section through the collider's
+//! centre), its wall planes as a dark outline. Pictures are `render/frame_NNNNNN.png`, with
+//! `_FIELD`, `_VIEW`, `_range_MIN_MAX` and `_NAME` appended when `--color-by`, `--view`,
+//! `--range` and `--name` are given; `--movie` assembles them with `ffmpeg` ([`movie`]).
 
 mod colour;
 mod frame;
+mod movie;
 mod raster;
 mod view;
 
+use crate::build::AnyBuilt;
 use crate::error::CliError;
 use crate::files::{hint, read_file};
 use crate::run::{numbered_files, snapshot_name};
 use crate::scene;
 use colour::{field_f64, positions, values_of, Colouring, CATEGORICAL, FRACTIONS};
-use frame::draw_frame;
+use frame::{draw_frame, WallBox};
+use mpm_core::Vector;
 use mpm_io::{Data, Snapshot};
 use std::path::{Path, PathBuf};
 use view::View;
@@ -57,9 +62,36 @@ pub struct RenderOptions {
     pub range: Option<(f64, f64)>,
     /// 3D view: one of [`VIEWS`] (default `xy`: x right, y up, seen from +z).
     pub view: Option<String>,
+    /// A name appended to the pictures' file names (`frame_NNNNNN_…_NAME.png`).
+    pub name: Option<String>,
+    /// Also assemble the rendered frames into a movie with `ffmpeg`, when it is installed.
+    pub movie: Option<MovieFormat>,
     /// Whether `.h5` files without a checksum block are read (`--unchecked`; unsafe, see
     /// [`crate::files`]).
     pub trust: mpm_io::Verify,
+}
+
+/// The container of `render --movie`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum MovieFormat {
+    /// H.264 in MP4 (yuv420p, 10 frames per second).
+    #[default]
+    Mp4,
+    /// An animated GIF with a palette made from the frames.
+    Gif,
+}
+
+/// What `render` wrote and chose.
+#[derive(Clone, Debug, Default)]
+pub struct Rendered {
+    /// The pictures, in frame order.
+    pub files: Vec<PathBuf>,
+    /// The colour range of a continuous field and how it was chosen, for the user.
+    pub range: Option<String>,
+    /// The movie, when one was asked for and `ffmpeg` made it.
+    pub movie: Option<PathBuf>,
+    /// Why no movie was made although one was asked for (no `ffmpeg`, a single frame).
+    pub notes: Vec<String>,
 }
 
 /// One frame's particles: positions (as 3-vectors), colour values, and which are coloured.
@@ -111,8 +143,8 @@ pub fn particle_spacing(s: &Snapshot, dim: usize) -> Option<f64> {
     v.get(v.len() / 2).map(|m| m.powf(1.0 / dim as f64))
 }
 
-/// Renders snapshots of a run directory; returns the PNG files written.
-pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
+/// Renders snapshots of a run directory; returns the PNG files written and the colour range.
+pub fn render(opts: &RenderOptions) -> Result<Rendered, CliError> {
     let bad = |m: String| CliError::BadInput(format!("error: render: {m}"));
     if let Some((lo, hi)) = opts.range {
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
@@ -232,23 +264,21 @@ pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
             (lo, hi)
         }
     };
-    let (mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY);
-    for f in &frames {
-        for (&v, _) in f.values.iter().zip(&f.coloured).filter(|(_, c)| **c) {
-            if v.is_finite() {
-                vmin = vmin.min(v);
-                vmax = vmax.max(v);
-            }
-        }
-    }
-    // Whether some values lie below / above the colour range (marked on the colour bar).
-    let mut clipped = (false, false);
-    if let Some((lo, hi)) = opts.range {
-        clipped = (vmin < lo, vmax > hi);
-        (vmin, vmax) = (lo, hi);
-    } else if vmin > vmax || vmin.is_nan() || vmax.is_nan() || FRACTIONS.contains(&field.as_str()) {
-        (vmin, vmax) = (0.0, 1.0);
-    }
+    let mut finite: Vec<f64> = frames
+        .iter()
+        .flat_map(|f| f.values.iter().zip(&f.coloured))
+        .filter(|(v, c)| **c && v.is_finite())
+        .map(|(v, _)| *v)
+        .collect();
+    finite.sort_by(f64::total_cmp);
+    let fixed = opts
+        .range
+        .or(FRACTIONS.contains(&field.as_str()).then_some((0.0, 1.0)));
+    let ColourRange {
+        range: (vmin, vmax),
+        clipped,
+        how,
+    } = colour_range(&finite, fixed);
     let out_dir = opts.dir.join("render");
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| CliError::Other(format!("error: {}: {e}", out_dir.display())))?;
@@ -261,27 +291,121 @@ pub fn render(opts: &RenderOptions) -> Result<Vec<PathBuf>, CliError> {
         unit: &unit,
         material_names: &material_names,
     };
-    let mut written = Vec::new();
+    let walls = stored.as_ref().and_then(wall_box);
+    let suffix = file_suffix(&[
+        opts.color_by.clone(),
+        opts.view.clone(),
+        opts.range
+            .map(|(lo, hi)| format!("range_{}_{}", number_tag(lo), number_tag(hi))),
+        opts.name.clone(),
+    ]);
+    let mut rendered = Rendered {
+        range: (!categorical)
+            .then(|| format!("colour range of {field}: {vmin:.4e} .. {vmax:.4e} {unit} ({how})")),
+        ..Rendered::default()
+    };
     for f in &frames {
-        let img = draw_frame(f, &view, dim, &colour, &colliders);
-        let path = out_dir.join(frame_file_name(
-            f.number,
-            opts.color_by.as_deref(),
-            opts.view.as_deref(),
-        ));
+        let img = draw_frame(f, &view, dim, &colour, (&colliders, walls));
+        let path = out_dir.join(format!("frame_{:06}{suffix}.png", f.number));
         img.save(&path)
             .map_err(|e| CliError::Other(format!("error: cannot write {e}")))?;
-        written.push(path);
+        rendered.files.push(path);
     }
-    Ok(written)
+    if let Some(format) = opts.movie {
+        let first = frames[0].number;
+        match movie::assemble(&out_dir, first, frames.len(), &suffix, format) {
+            Ok(path) => rendered.movie = Some(path),
+            Err(movie::Skipped(note)) => rendered.notes.push(note),
+        }
+    }
+    Ok(rendered)
 }
 
-/// `frame_NNNNNN.png`, with `_FIELD` when a colour field was asked for and `_VIEW` when a view
-/// was, so that pictures of different fields or views of a frame do not overwrite each other.
-/// Characters other than letters, digits, `-` and `_` become `_`.
-pub fn frame_file_name(frame: u64, color_by: Option<&str>, view: Option<&str>) -> String {
-    let mut name = format!("frame_{frame:06}");
-    for part in [color_by, view].into_iter().flatten() {
+/// The colour range of a continuous field and what was clipped.
+struct ColourRange {
+    range: (f64, f64),
+    /// Whether values lie below / above the range (marked `<` / `>` on the colour bar).
+    clipped: (bool, bool),
+    /// How the range was chosen, for the user.
+    how: String,
+}
+
+/// The colour range of the sorted finite values `sorted`: `fixed` when given (`--range`, or
+/// [0, 1] for fractions); else from the 1st to the 99th percentile, so that a few outliers do
+/// not squeeze the rest into one colour, or the whole range when those coincide; a constant
+/// field gets a range around its value.
+fn colour_range(sorted: &[f64], fixed: Option<(f64, f64)>) -> ColourRange {
+    let (min, max) = match (sorted.first(), sorted.last()) {
+        (Some(&a), Some(&b)) => (a, b),
+        _ => (0.0, 1.0),
+    };
+    let n = sorted.len();
+    let outside = |lo: f64, hi: f64| {
+        let below = sorted.iter().take_while(|&&v| v < lo).count();
+        let above = sorted.iter().rev().take_while(|&&v| v > hi).count();
+        (below, above)
+    };
+    let counted = |how: &str, (below, above): (usize, usize)| {
+        format!("{how}; {below} of {n} values below it, {above} above")
+    };
+    if let Some((lo, hi)) = fixed {
+        let (below, above) = outside(lo, hi);
+        return ColourRange {
+            range: (lo, hi),
+            clipped: (below > 0, above > 0),
+            how: counted("as given", (below, above)),
+        };
+    }
+    if n == 0 {
+        return ColourRange {
+            range: (0.0, 1.0),
+            clipped: (false, false),
+            how: "no finite values".into(),
+        };
+    }
+    if min == max {
+        let pad = (min.abs() * 1e-3).max(1e-12);
+        return ColourRange {
+            range: (min - pad, max + pad),
+            clipped: (false, false),
+            how: format!("the field is constant, {min:.6e}"),
+        };
+    }
+    let at = |q: f64| sorted[((q * (n - 1) as f64).round() as usize).min(n - 1)];
+    let (p1, p99) = (at(0.01), at(0.99));
+    let (lo, hi, how) = if p1 < p99 {
+        (p1, p99, "1st to 99th percentile")
+    } else {
+        (min, max, "minimum to maximum")
+    };
+    let (below, above) = outside(lo, hi);
+    ColourRange {
+        range: (lo, hi),
+        clipped: (below > 0, above > 0),
+        how: counted(how, (below, above)),
+    }
+}
+
+/// The wall planes of the stored scene as the solver places them (lower and upper corner, m),
+/// by building the solver from it; `None` without walls, or when the scene does not build here
+/// (e.g. a mesh body whose file is not beside the snapshots).
+fn wall_box(stored: &scene::LoadedScene) -> Option<WallBox> {
+    fn corners<const D: usize>(w: Option<(Vector<D>, Vector<D>)>) -> Option<WallBox> {
+        let (lo, hi) = w?;
+        let get = |v: &Vector<D>| [0, 1, 2].map(|a| if a < D { v[a] } else { 0.0 });
+        Some((get(&lo), get(&hi)))
+    }
+    match crate::build::build(stored).ok()? {
+        AnyBuilt::D2(b) => corners(b.solver.region().walls),
+        AnyBuilt::D3(b) => corners(b.solver.region().walls),
+    }
+}
+
+/// `_PART` for each part given, characters other than letters, digits, `-` and `_` replaced by
+/// `_`: pictures of different fields, views, ranges or names do not overwrite each other.
+fn file_suffix(parts: &[Option<String>]) -> String {
+    let mut name = String::new();
+    for part in parts.iter().flatten() {
         name.push('_');
         name.extend(part.chars().map(|c| {
             if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
@@ -291,7 +415,20 @@ pub fn frame_file_name(frame: u64, color_by: Option<&str>, view: Option<&str>) -
             }
         }));
     }
-    name + ".png"
+    name
+}
+
+/// A number for a file name: `0.5` → `0p5`, `-2000` → `-2000`, `1e-6` → `1e-6`.
+fn number_tag(x: f64) -> String {
+    format!("{x}").replace('.', "p").replace('+', "")
+}
+
+/// `frame_NNNNNN.png`, with `_FIELD` when a colour field was asked for and `_VIEW` when a view
+/// was (and `_range_LO_HI` and `_NAME` after `--range` and `--name`), so that pictures of
+/// different fields or views of a frame do not overwrite each other.
+pub fn frame_file_name(frame: u64, color_by: Option<&str>, view: Option<&str>) -> String {
+    let suffix = file_suffix(&[color_by.map(str::to_string), view.map(str::to_string)]);
+    format!("frame_{frame:06}{suffix}.png")
 }
 
 #[cfg(test)]

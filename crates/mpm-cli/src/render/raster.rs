@@ -26,6 +26,11 @@ impl Image {
         }
     }
 
+    /// The colour at `(x, y)`, `None` outside the image.
+    pub(super) fn get(&self, x: usize, y: usize) -> Option<[u8; 3]> {
+        (x < self.w && y < self.h).then(|| self.px[y * self.w + x])
+    }
+
     pub(super) fn rect(&mut self, x0: usize, y0: usize, x1: usize, y1: usize, c: [u8; 3]) {
         for y in y0..y1.min(self.h) {
             for x in x0..x1.min(self.w) {
@@ -74,8 +79,20 @@ impl Image {
         }
     }
 
+    /// Text in colour `c` with the top-left corner of its line at `(x, y)`, blended over the
+    /// image by the glyphs' coverage.
     pub(super) fn text(&mut self, s: &str, x: usize, y: usize, scale: usize, c: [u8; 3]) {
-        draw_text(s, x, y, scale, |px, py| self.set(px, py, c));
+        draw_text(s, x, y, scale, |px, py, coverage| {
+            if let Some(old) = self.get(px, py) {
+                let mix =
+                    |a: u8, b: u8| (a as f32 + (b as f32 - a as f32) * coverage).round() as u8;
+                self.set(
+                    px,
+                    py,
+                    [mix(old[0], c[0]), mix(old[1], c[1]), mix(old[2], c[2])],
+                );
+            }
+        });
     }
 
     pub(super) fn save(&self, path: &Path) -> Result<(), String> {
