@@ -16,7 +16,7 @@
 //! the snapshot are drawn in grey (in 3D axis views, their cross-section through the collider's
 //! centre), its wall planes as a dark outline. Pictures are `render/frame_NNNNNN.png`, with
 //! `_FIELD`, `_VIEW`, `_range_MIN_MAX` and `_NAME` appended when `--color-by`, `--view`,
-//! `--range` and `--name` are given; `--movie` assembles them with `ffmpeg` ([`movie`]).
+//! `--range` and `--name` are given; `--movie` assembles them with `ffmpeg` (`movie.rs`).
 
 mod colour;
 mod frame;
