@@ -72,9 +72,8 @@ impl Checked {
         mpm_cli: &Path,
         timeout: Option<Duration>,
     ) -> Result<Self, IoError> {
-        let unverifiable =
-            || matches!(mpm_io::read_header(path), Err(IoError::Unverifiable { .. }));
-        let copy = if trust == Verify::Unchecked && unverifiable() {
+        // Only the first 8 bytes decide: the read of the file (or of its copy) verifies it once.
+        let copy = if trust == Verify::Unchecked && mpm_io::is_unsealed(path) {
             Some(copy_in_child(path, mpm_cli, timeout)?)
         } else {
             None

@@ -108,6 +108,22 @@ pub enum Verify {
     Unchecked,
 }
 
+/// Whether `path` is a regular file that starts with the HDF5 signature instead of a checksum
+/// block: the file [`verify`] refuses as [`IoError::Unverifiable`] unless
+/// [`Verify::Unchecked`]. Reads its first 8 bytes only; any error reading them is `false` (the
+/// read that follows reports it).
+pub fn is_unsealed(path: &Path) -> bool {
+    let head = || -> std::io::Result<[u8; 8]> {
+        if !std::fs::metadata(path)?.is_file() {
+            return Ok([0; 8]);
+        }
+        let mut head = [0u8; 8];
+        File::open(path)?.read_exact(&mut head)?;
+        Ok(head)
+    };
+    head().is_ok_and(|h| &h == HDF5_SIGNATURE)
+}
+
 /// Checks the file at `path` against its checksum block (every byte, or with [`Scope::Structure`]
 /// all but the dataset values) before the HDF5 library opens it.
 ///

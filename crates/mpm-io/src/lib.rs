@@ -36,7 +36,7 @@ mod snapshot;
 mod xdmf;
 
 pub use atomic::write_atomically;
-pub use checksum::Verify;
+pub use checksum::{is_unsealed, Verify};
 pub use error::IoError;
 pub use snapshot::{
     list_files, read_file, read_file_with, read_header, read_header_with, read_layout,

@@ -745,6 +745,9 @@ fn files_without_checksums_are_refused_unless_unchecked() {
         assert!(matches!(err, IoError::Unverifiable { .. }), "{err:?}");
         assert!(err.to_string().contains("no checksum block"), "{err}");
     }
+    // The 8-byte test tells them apart from sealed files (and from anything else).
+    assert!(mpm_io::is_unsealed(&plain) && !mpm_io::is_unsealed(&path));
+    assert!(!mpm_io::is_unsealed(&dir) && !mpm_io::is_unsealed(&dir.join("missing.h5")));
     let unchecked = Verify::Unchecked;
     assert_bit_identical(&read_file_with(&plain, unchecked).unwrap(), &h, &fs);
     assert_eq!(read_header_with(&plain, unchecked).unwrap(), h);
