@@ -109,7 +109,7 @@ pub enum Verify {
 }
 
 /// Whether `path` is a regular file that starts with the HDF5 signature instead of a checksum
-/// block: the file [`verify`] refuses as [`IoError::Unverifiable`] unless
+/// block: the file a verified read refuses as [`IoError::Unverifiable`] unless
 /// [`Verify::Unchecked`]. Reads its first 8 bytes only; any error reading them is `false` (the
 /// read that follows reports it).
 pub fn is_unsealed(path: &Path) -> bool {
