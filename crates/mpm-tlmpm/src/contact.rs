@@ -100,6 +100,11 @@ pub struct ContactStats {
 }
 
 impl ContactStats {
+    /// Whether any particle touches another body or an obstacle.
+    pub fn touching(&self) -> bool {
+        self.pairs > 0 || self.obstacle_contacts > 0
+    }
+
     /// The totals of `self` and `other`.
     fn merge(self, other: Self) -> Self {
         Self {

@@ -314,6 +314,21 @@ where
         ))
     }
 
+    /// The contact forces at the end-of-step positions of the last G2P ([`Self::updates`],
+    /// scratch) for a step of `dt` (s), added to the external nodal forces; `None` when contact
+    /// is off.
+    pub fn contact_at_step_end(&mut self, dt: Real) -> Option<ContactStats> {
+        let (stage, params) = (self.contact.as_mut()?, self.params.contact.as_ref()?);
+        let x: Vec<Vector<D>> = self.updates.iter().map(|u| u.x).collect();
+        Some(stage.apply(
+            &self.reference,
+            (&x, &self.particles.mass),
+            &params.obstacles,
+            dt,
+            &mut self.external,
+        ))
+    }
+
     /// Guard check on the node displacements: all finite.
     pub fn check_displacements(&self) -> Result<(), Failure> {
         match self

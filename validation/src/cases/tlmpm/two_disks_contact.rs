@@ -15,7 +15,7 @@ use crate::cases::{lattice, neo_hookean};
 use crate::report::{progress, CaseResult, Mode, Run};
 use mpm_core::{run_until_with, Body, Real, StepControl, TimeStepPolicy, Vector};
 use mpm_tlmpm::{
-    ContactParams, ContactRadius, ImplicitParams, NewtonParams, TlmpmParams, Transfer,
+    ContactParams, ContactRadius, ImplicitParams, NewtonParams, TimeScheme, TlmpmParams, Transfer,
 };
 use std::collections::BTreeMap;
 
@@ -60,6 +60,16 @@ pub(super) fn solver(
     implicit: bool,
     transfer: Transfer,
 ) -> Result<Tlmpm<2>, String> {
+    let scheme = implicit.then_some(TimeScheme::BackwardEuler);
+    solver_with((dx, dt), scheme, transfer)
+}
+
+/// [`solver`] with the implicit time scheme `scheme` (`None`: the explicit solver).
+pub(super) fn solver_with(
+    (dx, dt): (Real, Real),
+    scheme: Option<TimeScheme>,
+    transfer: Transfer,
+) -> Result<Tlmpm<2>, String> {
     let lo = Vector::<2>::new(0.3 - 0.5 * dx, 0.3 - 0.5 * dx);
     let hi = Vector::<2>::new(1.2 + 0.5 * dx, 0.7 + 0.5 * dx);
     let params = TlmpmParams {
@@ -74,11 +84,12 @@ pub(super) fn solver(
         }),
         ..TlmpmParams::default()
     };
-    let ip = implicit.then(|| ImplicitParams {
+    let ip = scheme.map(|scheme| ImplicitParams {
         newton: NewtonParams {
             rel_tol: 1e-12,
             ..NewtonParams::default()
         },
+        scheme,
         ..ImplicitParams::default()
     });
     let spec = grid_around((lo, hi), dx, 3);

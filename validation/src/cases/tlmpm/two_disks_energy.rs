@@ -15,6 +15,13 @@
 //!
 //! Acceptance: at every resolution the best transfer loses less than [`MAX_BEST_LOSS`] of its
 //! energy, and no run ends with more than 1 % more energy than it started with.
+//!
+//! Newmark average acceleration with contact ([`newmark`]): the persistent transfer at
+//! Δx = 0.05 m, dt = 10⁻³ and 10⁻² s ([`NEWMARK_DT`]), must lose between 0 and
+//! [`MAX_NEWMARK_LOSS`] of `K + U + U_contact` with a restitution (separation over approach
+//! speed) of at most 1. With the start-of-step contact forces alone it gained 348 % and 34 %
+//! (restitution 1.33 and 1.07); the contact forces at the end of the step make it lose 4.4 %
+//! and 2.1 % (restitution 0.885 and 0.951).
 
 use super::two_disks_contact::{solver, T_END};
 use super::{result, sweep_labelled};
@@ -40,6 +47,71 @@ const TRANSFERS: [(Transfer, &str); 4] = [
     (Transfer::Pic, "PIC"),
     (Transfer::Flip { blend: FLIP_BLEND }, "FLIP 0.99"),
 ];
+
+/// Time steps (s) of the Newmark runs (persistent transfer, Δx = 0.05 m).
+pub const NEWMARK_DT: [Real; 2] = [1e-3, 1e-2];
+
+/// Acceptance bound on the energy a Newmark run loses through the collision (dimensionless):
+/// between 0 and this fraction of `K + U + U_contact`, with restitution at most 1.
+pub const MAX_NEWMARK_LOSS: Real = 0.1;
+
+/// The relative velocity of the disks along x (m/s): the right disk's mean velocity minus the
+/// left one's (the first half of the particles is the left disk).
+fn relative_velocity(s: &super::Tlmpm<2>) -> Real {
+    let v = &s.particles().v;
+    let half = v.len() / 2;
+    let mean = |r: std::ops::Range<usize>| {
+        let n = r.len() as Real;
+        r.map(|p| v[p].x).sum::<Real>() / n
+    };
+    mean(half..v.len()) - mean(0..half)
+}
+
+/// One Newmark (average acceleration) run with the persistent transfer at Δx = 0.05 m and step
+/// `dt` (s). error = the energy loss; extras `newmark` (1), `dt` (s), `energy_loss`,
+/// `max_deviation`, `restitution` (the disks' separation speed over their approach speed).
+pub fn newmark(dt: Real) -> Result<Run, String> {
+    let dx = 0.05;
+    let mut s = super::two_disks_contact::solver_with(
+        (dx, dt),
+        Some(mpm_tlmpm::TimeScheme::Newmark),
+        Transfer::Persistent,
+    )?;
+    let e0 = s.diagnostics().total_energy();
+    let approach = relative_velocity(&s);
+    let mut deviation: Real = 0.0;
+    let wall = run_until_with(&mut *s, T_END, |s, _| {
+        deviation = deviation.max((s.diagnostics().total_energy() - e0).abs() / e0);
+    })
+    .map_err(|e| e.to_string())?
+    .wall;
+    let loss = (e0 - s.diagnostics().total_energy()) / e0;
+    let restitution = -relative_velocity(&s) / approach;
+    progress(
+        NAME,
+        &format!(
+            "implicit Newmark persistent dx = {dx} dt = {dt}: energy loss {:.2}%, max \
+             |E - E0|/E0 {:.2}%, restitution {restitution:.3}, {:.2} s",
+            100.0 * loss,
+            100.0 * deviation,
+            wall.as_secs_f64()
+        ),
+    );
+    let mut extra = BTreeMap::new();
+    extra.insert("newmark".into(), 1.0);
+    extra.insert("energy_loss".into(), loss);
+    extra.insert("max_deviation".into(), deviation);
+    extra.insert("restitution".into(), restitution);
+    Ok(Run {
+        dx,
+        dt,
+        particles: s.particles().len(),
+        steps: s.steps(),
+        wall_s: wall.as_secs_f64(),
+        error: loss,
+        extra,
+    })
+}
 
 /// One run: transfer number `t` of `TRANSFERS`, grid spacing `dx` (m), implicit or explicit.
 /// error = the energy loss; extras `transfer` (index into the transfers), `implicit`,
@@ -115,6 +187,12 @@ pub fn case(mode: Mode) -> CaseResult {
         },
         |(t, dx, imp)| run(t, dx, imp),
     );
+    let (newmark_runs, newmark_failures) = sweep_labelled(
+        NAME,
+        &NEWMARK_DT,
+        |dt| format!("implicit Newmark persistent dt = {dt} s"),
+        newmark,
+    );
     let description = format!(
         "The two disks of two_disks_contact (radius 0.2 m, E = 1e5 Pa, nu = 0.3, rho = 1000 \
          kg/m^2, 1 m/s each, penalty contact r = 0.5 dx, {T_END} s) per transfer: persistent \
@@ -124,7 +202,10 @@ pub fn case(mode: Mode) -> CaseResult {
          dt^2 per pair). error = extra.energy_loss = 1 - E(T)/E(0); extra.max_deviation = max_t \
          |E(t) - E(0)|/E(0); extra.transfer = 0 persistent, 1 APIC, 2 PIC, 3 FLIP; \
          extra.implicit = 1 for the implicit solver; extra.contact_energy_max = the largest \
-         contact potential (J); wall_s = time in the solver's steps."
+         contact potential (J); wall_s = time in the solver's steps. Also implicit Newmark \
+         (average acceleration) with the persistent transfer at dx = 0.05 m and dt = 1e-3 and \
+         1e-2 s (extra.newmark = 1): error = energy loss, extra.restitution = separation \
+         speed / approach speed of the disks."
     );
     let verdict = {
         let mut ok = !runs.is_empty();
@@ -164,16 +245,32 @@ pub fn case(mode: Mode) -> CaseResult {
                 if good { "" } else { " (FAILS)" }
             ));
         }
+        for r in &newmark_runs {
+            let (loss, e) = (r.extra["energy_loss"], r.extra["restitution"]);
+            let good = (0.0..=MAX_NEWMARK_LOSS).contains(&loss) && e <= 1.0;
+            ok &= good;
+            parts.push(format!(
+                "implicit Newmark dt = {}: loss {:.1}%, restitution {e:.3}{}",
+                r.dt,
+                100.0 * loss,
+                if good { "" } else { " (FAILS)" }
+            ));
+        }
+        ok &= newmark_failures.is_empty();
         (
             ok,
             format!(
                 "Acceptance at every resolution: the best transfer loses < {}% of K + U + \
-                 contact energy, and no run gains more than 1%. Energy loss (wall time): {}.",
+                 contact energy, and no run gains more than 1%; Newmark loses between 0 and \
+                 {}% with restitution <= 1. Energy loss (wall time): {}.",
                 100.0 * MAX_BEST_LOSS,
+                100.0 * MAX_NEWMARK_LOSS,
                 parts.join("; ")
             ),
         )
     };
+    let runs: Vec<Run> = runs.into_iter().chain(newmark_runs).collect();
+    let failures: Vec<String> = failures.into_iter().chain(newmark_failures).collect();
     result(
         NAME,
         "mpm-tlmpm explicit and implicit (quadratic B-spline; persistent, APIC, PIC, FLIP \
