@@ -138,8 +138,21 @@ pub(crate) fn refuse_mirrored_walls(c: &mut Checker<'_>, boundaries: &[BoundaryD
     }
 }
 
-/// The default treatment of walls of `thickness` layers with `contact` on `grid`.
+/// The default treatment of walls of `thickness` layers with `contact` on `grid`; node layers
+/// on a grid the scene's checks refuse (its errors are reported at the grid's keys), so that no
+/// grid size is computed from values out of range.
 fn default_treatment(contact: Contact, thickness: usize, grid: &Grid, d: usize) -> WallTreatment {
+    let valid = grid.dx > 0.0
+        && grid.dx.is_finite()
+        && grid.min.len() == d
+        && grid.max.len() == d
+        && (0..d).all(|a| {
+            let nodes = (grid.max[a] - grid.min[a]) / grid.dx;
+            nodes.is_finite() && (1.0..=1e9).contains(&nodes)
+        });
+    if !valid {
+        return WallTreatment::Nodes;
+    }
     fn on<const D: usize>(contact: Contact, thickness: usize, g: &Grid) -> WallTreatment {
         let spec = GridSpec::<D>::covering(vector::<D>(&g.min), vector::<D>(&g.max), g.dx);
         DomainWalls::with_default_treatment(contact, thickness, &spec).treatment
